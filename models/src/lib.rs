@@ -1,0 +1,5 @@
+#![doc = include_str!("../README.md")]
+
+pub mod axis;
+
+pub use axis::{Axis, Channel};
