@@ -87,7 +87,9 @@ impl Channel {
     }
 
     pub fn parse(s: &str) -> Option<Channel> {
-        Channel::ALL.into_iter().find(|c| c.name() == s || c.suffix() == s)
+        Channel::ALL
+            .into_iter()
+            .find(|c| c.name() == s || c.suffix() == s)
     }
 }
 

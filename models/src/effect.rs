@@ -1,0 +1,227 @@
+//! The effect trait and the registry: every physical effect of the plant is one type that
+//! declares its parameters, its frequency response and its discrete-time step.
+//!
+//! Where an effect acts is its [`Site`]. The plant's signal path, in order:
+//!
+//! ```text
+//! com_ref_j --Command effects (per input axis j)--> servo (tracking low-pass; Servo effects
+//!   limit its acceleration) --> CoM x_cj, acceleration --> pendulum a_ij x_cj - b_ij x_cj''
+//!   (Pendulum effects rescale a, b) --> Channel effects (per G_ij) --> sum over j
+//!   --> Sensor effects (per output axis i) --> zmp_i
+//! ```
+
+use crate::axis::{Axis, Channel};
+use num_complex::Complex64;
+use std::fmt;
+
+/// Where in the signal path an effect acts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Site {
+    /// On the CoM reference of one input axis, before the servo.
+    Command,
+    /// The servo of one input axis: the core tracking low-pass, or a limit on its acceleration.
+    Servo,
+    /// The 2×2 pendulum: the core coefficients, or a modifier of them.
+    Pendulum,
+    /// On one channel `G_ij`, multiplicatively.
+    Channel,
+    /// On the measured ZMP of one output axis.
+    Sensor,
+}
+
+/// The place one instance of an effect is bound to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Binding {
+    Global,
+    Axis(Axis),
+    Channel(Channel),
+}
+
+impl Binding {
+    /// The bindings an effect at `site` can have, in canonical order.
+    pub fn all_for(site: Site) -> &'static [Binding] {
+        const AXES: [Binding; 2] = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
+        const CHANNELS: [Binding; 4] = [
+            Binding::Channel(Channel::ALL[0]),
+            Binding::Channel(Channel::ALL[1]),
+            Binding::Channel(Channel::ALL[2]),
+            Binding::Channel(Channel::ALL[3]),
+        ];
+        match site {
+            Site::Command | Site::Servo | Site::Sensor => &AXES,
+            Site::Channel => &CHANNELS,
+            Site::Pendulum => &[Binding::Global],
+        }
+    }
+
+    /// The key of this binding in a model file (`x`, `G21`), `None` for global.
+    pub fn key(self) -> Option<&'static str> {
+        match self {
+            Binding::Global => None,
+            Binding::Axis(a) => Some(a.name()),
+            Binding::Channel(c) => Some(c.name()),
+        }
+    }
+
+    pub fn parse(site: Site, key: &str) -> Option<Binding> {
+        Binding::all_for(site)
+            .iter()
+            .copied()
+            .find(|b| b.key() == Some(key))
+    }
+}
+
+impl fmt::Display for Binding {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.key().unwrap_or("global"))
+    }
+}
+
+/// One parameter of an effect. Units are SI.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParamSpec {
+    pub name: &'static str,
+    pub unit: &'static str,
+    /// Inclusive bounds; a value outside is a model-file error.
+    pub min: f64,
+    pub max: f64,
+    /// Used when the model file omits the parameter; `None` makes it required.
+    pub default: Option<f64>,
+    pub doc: &'static str,
+}
+
+impl ParamSpec {
+    pub const fn required(
+        name: &'static str,
+        unit: &'static str,
+        min: f64,
+        max: f64,
+        doc: &'static str,
+    ) -> ParamSpec {
+        ParamSpec {
+            name,
+            unit,
+            min,
+            max,
+            default: None,
+            doc,
+        }
+    }
+
+    pub const fn optional(
+        name: &'static str,
+        unit: &'static str,
+        min: f64,
+        max: f64,
+        default: f64,
+        doc: &'static str,
+    ) -> ParamSpec {
+        ParamSpec {
+            name,
+            unit,
+            min,
+            max,
+            default: Some(default),
+            doc,
+        }
+    }
+}
+
+/// What an effect's builder gets besides its parameter values.
+#[derive(Debug, Clone, Copy)]
+pub struct BuildContext {
+    /// The plant's fixed internal step, s.
+    pub h: f64,
+    pub binding: Binding,
+    /// The tracking low-pass of the bound input axis `(omega_n rad/s, zeta)`, for servo effects.
+    pub servo: Option<(f64, f64)>,
+}
+
+/// A cross-parameter check: `Err((index of the offending parameter, message))`.
+pub type Validate = fn(&[f64]) -> Result<(), (usize, String)>;
+
+/// The static description of an effect kind: one entry of the [`REGISTRY`].
+pub struct EffectInfo {
+    /// Stable name used in model files, diagnosis JSON and FMU variables.
+    pub kind: &'static str,
+    pub title: &'static str,
+    pub doc: &'static str,
+    pub site: Site,
+    /// Core effects form the nominal plant and must be present in every model.
+    pub core: bool,
+    pub linear: bool,
+    pub params: &'static [ParamSpec],
+    pub validate: Option<Validate>,
+    pub build: fn(&BuildContext, &[f64]) -> Box<dyn Effect>,
+}
+
+impl fmt::Debug for EffectInfo {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("EffectInfo")
+            .field("kind", &self.kind)
+            .finish()
+    }
+}
+
+impl EffectInfo {
+    pub fn param_index(&self, name: &str) -> Option<usize> {
+        self.params.iter().position(|p| p.name == name)
+    }
+}
+
+/// A physical effect at run time. Methods that do not apply to the effect's site keep their
+/// identity default. `step` and friends never allocate and never panic.
+pub trait Effect: Send + Sync + fmt::Debug {
+    fn info(&self) -> &'static EffectInfo;
+
+    /// First-harmonic gain from the effect's input to its output at `omega_rad_s` for an input
+    /// sine of `amplitude` (in the unit of the effect's input). Exact for linear effects (the
+    /// amplitude is ignored); a describing function or a simulated first harmonic otherwise.
+    /// Servo effects return the servo's response with the effect divided by the one without.
+    fn frequency_response(&self, omega_rad_s: f64, amplitude: f64) -> Complex64;
+
+    /// Puts the effect at rest for the constant input `u`; returns its output at rest.
+    fn reset(&mut self, u: f64) -> f64;
+
+    /// One internal step of a signal effect (Command, Channel, Sensor sites).
+    #[inline]
+    fn step(&mut self, u: f64) -> f64 {
+        u
+    }
+
+    /// Servo effects: the acceleration the servo achieves for a demanded one at `velocity`.
+    #[inline]
+    fn servo_acceleration(&mut self, demand: f64, _velocity: f64) -> f64 {
+        demand
+    }
+
+    /// Pendulum modifiers: `(scale of a_ij, scale of b_ij)` at the operating point `[x, y]` m.
+    fn pendulum_scale(&self, _operating_point: [f64; 2]) -> (f64, f64) {
+        (1.0, 1.0)
+    }
+
+    /// The linear continuous-time transfer function, when the effect has one.
+    fn transfer_function(&self) -> Option<crate::lti::TransferFunction> {
+        None
+    }
+}
+
+/// Every effect kind, in the canonical order used within a site.
+pub static REGISTRY: &[&EffectInfo] = &[
+    &crate::effects::pendulum::INFO,
+    &crate::effects::tracking_lowpass::INFO,
+    &crate::effects::acceleration_saturation::INFO,
+    &crate::effects::coulomb_friction::INFO,
+    &crate::effects::time_delay::INFO,
+    &crate::effects::backlash::INFO,
+    &crate::effects::uncertainty::INFO,
+    &crate::effects::operating_point::INFO,
+    &crate::effects::structural_mode::INFO,
+    &crate::effects::sensor_lowpass::INFO,
+    &crate::effects::sensor_drift::INFO,
+];
+
+/// The registry entry of `kind`.
+pub fn lookup(kind: &str) -> Option<&'static EffectInfo> {
+    REGISTRY.iter().copied().find(|i| i.kind == kind)
+}

@@ -1,0 +1,38 @@
+//! A linear effect given by its transfer function: exact response, first-order-hold step.
+
+use crate::effect::{Effect, EffectInfo};
+use crate::lti::{DiscreteLti, TransferFunction};
+use num_complex::Complex64;
+
+#[derive(Debug, Clone)]
+pub struct LtiEffect {
+    info: &'static EffectInfo,
+    tf: TransferFunction,
+    sys: DiscreteLti,
+}
+
+impl LtiEffect {
+    pub fn new(info: &'static EffectInfo, tf: TransferFunction, h: f64) -> LtiEffect {
+        let sys = DiscreteLti::new(&tf, h);
+        LtiEffect { info, tf, sys }
+    }
+}
+
+impl Effect for LtiEffect {
+    fn info(&self) -> &'static EffectInfo {
+        self.info
+    }
+    fn frequency_response(&self, omega: f64, _amplitude: f64) -> Complex64 {
+        self.tf.freq(omega)
+    }
+    fn reset(&mut self, u: f64) -> f64 {
+        self.sys.reset(u)
+    }
+    #[inline]
+    fn step(&mut self, u: f64) -> f64 {
+        self.sys.step(u)
+    }
+    fn transfer_function(&self) -> Option<TransferFunction> {
+        Some(self.tf.clone())
+    }
+}

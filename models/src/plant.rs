@@ -1,0 +1,347 @@
+//! The 2×2 ZMP plant composed from a model file: inputs the CoM references `x_cr, y_cr`,
+//! outputs the ZMP `zmp_x, zmp_y` and the CoM `x_c, y_c`.
+//!
+//! The plant acts on absolute values: at rest, `zmp_i = sum_j a_ij x_cj` (plus sensor offsets);
+//! its small-signal model around any operating point is the seed's `G_ZMP`. One call of
+//! [`Plant::step`] advances one fixed internal step `h`, the inputs moving linearly from the
+//! previous call's values; it never allocates.
+
+use crate::axis::{Axis, Channel};
+use crate::effect::{Binding, BuildContext, Effect, Site};
+use crate::effects::pendulum::Pendulum;
+use crate::effects::servo::Servo;
+use crate::effects::tracking_lowpass::TrackingLowpass;
+use crate::harmonic::first_harmonic;
+use crate::model_file::{ModelError, ModelSpec};
+use num_complex::Complex64;
+
+/// Default internal step of the plant, s.
+pub const DEFAULT_STEP: f64 = 1e-3;
+
+/// What the plant gives after a step.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PlantOutput {
+    /// Measured ZMP `[zmp_x, zmp_y]`, m.
+    pub zmp: [f64; 2],
+    /// CoM `[x_c, y_c]`, m.
+    pub com: [f64; 2],
+    /// CoM acceleration, m/s².
+    pub com_acceleration: [f64; 2],
+}
+
+type Chain = Vec<Box<dyn Effect>>;
+
+#[derive(Debug)]
+pub struct Plant {
+    h: f64,
+    command: [Chain; 2],
+    servo: [Servo; 2],
+    servo_limits: [Chain; 2],
+    lowpass: [TrackingLowpass; 2],
+    pendulum: Pendulum,
+    pendulum_mods: Chain,
+    channel: [[Chain; 2]; 2],
+    sensor: [Chain; 2],
+    operating_point: [f64; 2],
+    a: [[f64; 2]; 2],
+    b: [[f64; 2]; 2],
+    last: PlantOutput,
+}
+
+fn run_chain(chain: &mut Chain, mut u: f64) -> f64 {
+    for e in chain.iter_mut() {
+        u = e.step(u);
+    }
+    u
+}
+
+fn reset_chain(chain: &mut Chain, mut u: f64) -> f64 {
+    for e in chain.iter_mut() {
+        u = e.reset(u);
+    }
+    u
+}
+
+impl Plant {
+    /// Builds the plant of `spec` with internal step `h` (s).
+    pub fn new(spec: &ModelSpec, h: f64) -> Result<Plant, ModelError> {
+        let file = spec.name.clone().unwrap_or_else(|| "model".into());
+        spec.validate(&file)?;
+        if !(h > 0.0 && h <= 0.1) {
+            return Err(ModelError {
+                file,
+                key: "step".into(),
+                message: format!("internal step {h} s must be in (0, 0.1]"),
+            });
+        }
+        let pendulum = Pendulum::from_values(
+            &spec
+                .get("pendulum", Binding::Global)
+                .expect("validated")
+                .values,
+        );
+        let lp = |a: Axis| {
+            let v = &spec
+                .get("tracking_lowpass", Binding::Axis(a))
+                .expect("validated")
+                .values;
+            TrackingLowpass {
+                omega_n: v[0],
+                zeta: v[1],
+            }
+        };
+        let lowpass = [lp(Axis::X), lp(Axis::Y)];
+        let mut plant = Plant {
+            h,
+            command: [Vec::new(), Vec::new()],
+            servo: [
+                Servo::new(lowpass[0].omega_n, lowpass[0].zeta, h),
+                Servo::new(lowpass[1].omega_n, lowpass[1].zeta, h),
+            ],
+            servo_limits: [Vec::new(), Vec::new()],
+            lowpass,
+            pendulum,
+            pendulum_mods: Vec::new(),
+            channel: [[Vec::new(), Vec::new()], [Vec::new(), Vec::new()]],
+            sensor: [Vec::new(), Vec::new()],
+            operating_point: [0.0; 2],
+            a: pendulum.a,
+            b: pendulum.b,
+            last: PlantOutput::default(),
+        };
+        for inst in spec.effects.iter().filter(|e| !e.info.core) {
+            let servo = match inst.binding {
+                Binding::Axis(a) => Some((lowpass[a.index()].omega_n, lowpass[a.index()].zeta)),
+                _ => None,
+            };
+            let ctx = BuildContext {
+                h,
+                binding: inst.binding,
+                servo,
+            };
+            let effect = inst.build(&ctx);
+            match (inst.info.site, inst.binding) {
+                (Site::Command, Binding::Axis(a)) => plant.command[a.index()].push(effect),
+                (Site::Servo, Binding::Axis(a)) => plant.servo_limits[a.index()].push(effect),
+                (Site::Pendulum, _) => plant.pendulum_mods.push(effect),
+                (Site::Channel, Binding::Channel(c)) => {
+                    plant.channel[c.output.index()][c.input.index()].push(effect)
+                }
+                (Site::Sensor, Binding::Axis(a)) => plant.sensor[a.index()].push(effect),
+                _ => {
+                    return Err(ModelError {
+                        file,
+                        key: inst.key(),
+                        message: "effect bound to a place its site does not have".into(),
+                    })
+                }
+            }
+        }
+        plant.set_operating_point([0.0, 0.0]);
+        plant.reset([0.0, 0.0]);
+        Ok(plant)
+    }
+
+    pub fn step_size(&self) -> f64 {
+        self.h
+    }
+
+    pub fn pendulum(&self) -> &Pendulum {
+        &self.pendulum
+    }
+
+    pub fn tracking_lowpass(&self, input: Axis) -> &TrackingLowpass {
+        &self.lowpass[input.index()]
+    }
+
+    /// The operating point `[x, y]` (m) that operating-point-dependent effects see.
+    pub fn set_operating_point(&mut self, op: [f64; 2]) {
+        self.operating_point = op;
+        let (mut sa, mut sb) = (1.0, 1.0);
+        for m in &self.pendulum_mods {
+            let (a, b) = m.pendulum_scale(op);
+            sa *= a;
+            sb *= b;
+        }
+        for i in 0..2 {
+            for j in 0..2 {
+                self.a[i][j] = self.pendulum.a[i][j] * sa;
+                self.b[i][j] = self.pendulum.b[i][j] * sb;
+            }
+        }
+    }
+
+    pub fn operating_point(&self) -> [f64; 2] {
+        self.operating_point
+    }
+
+    /// Puts the whole plant at rest for the constant CoM reference `com_ref`.
+    pub fn reset(&mut self, com_ref: [f64; 2]) -> PlantOutput {
+        let mut com = [0.0; 2];
+        for j in 0..2 {
+            let r = reset_chain(&mut self.command[j], com_ref[j]);
+            self.servo[j].reset(r);
+            for l in self.servo_limits[j].iter_mut() {
+                l.reset(r);
+            }
+            com[j] = r;
+        }
+        let mut zmp = [0.0; 2];
+        for i in 0..2 {
+            let mut z = 0.0;
+            for j in 0..2 {
+                z += reset_chain(&mut self.channel[i][j], self.a[i][j] * com[j]);
+            }
+            zmp[i] = reset_chain(&mut self.sensor[i], z);
+        }
+        self.last = PlantOutput {
+            zmp,
+            com,
+            com_acceleration: [0.0; 2],
+        };
+        self.last
+    }
+
+    /// Advances one internal step; `com_ref` has moved linearly from the previous value.
+    #[inline]
+    pub fn step(&mut self, com_ref: [f64; 2]) -> PlantOutput {
+        let mut com = [0.0; 2];
+        let mut acc = [0.0; 2];
+        for j in 0..2 {
+            let r = run_chain(&mut self.command[j], com_ref[j]);
+            let s = self.servo[j].step(r, &mut self.servo_limits[j]);
+            com[j] = s.position;
+            acc[j] = s.acceleration;
+        }
+        let mut zmp = [0.0; 2];
+        for i in 0..2 {
+            let mut z = 0.0;
+            for j in 0..2 {
+                let p = self.a[i][j] * com[j] - self.b[i][j] * acc[j];
+                z += run_chain(&mut self.channel[i][j], p);
+            }
+            zmp[i] = run_chain(&mut self.sensor[i], z);
+        }
+        self.last = PlantOutput {
+            zmp,
+            com,
+            com_acceleration: acc,
+        };
+        self.last
+    }
+
+    /// Advances `n` internal steps with the reference held at `com_ref` after the first.
+    pub fn advance(&mut self, com_ref: [f64; 2], n: usize) -> PlantOutput {
+        for _ in 0..n {
+            self.step(com_ref);
+        }
+        self.last
+    }
+
+    pub fn last_output(&self) -> PlantOutput {
+        self.last
+    }
+
+    /// Frequency response of the linear part at `omega` (rad/s): `G[i][j]` for output `i`,
+    /// input `j`. Nonlinear effects are left out (see [`Plant::describing_response`]).
+    pub fn frequency_response(&self, omega: f64) -> [[Complex64; 2]; 2] {
+        let mut g = [[Complex64::new(0.0, 0.0); 2]; 2];
+        for ch in Channel::ALL {
+            g[ch.output.index()][ch.input.index()] = self.channel_response(ch, omega, None);
+        }
+        g
+    }
+
+    /// First-harmonic response of one channel with nonlinear effects replaced by their
+    /// describing functions, for a reference sine of `amplitude` (m) on the channel's input.
+    /// The amplitude is carried along the command chain; the servo effects' describing
+    /// functions multiply.
+    pub fn describing_response(&self, ch: Channel, omega: f64, amplitude: f64) -> Complex64 {
+        self.channel_response(ch, omega, Some(amplitude))
+    }
+
+    fn channel_response(&self, ch: Channel, omega: f64, amplitude: Option<f64>) -> Complex64 {
+        let (i, j) = (ch.output.index(), ch.input.index());
+        let mut g = Complex64::new(1.0, 0.0);
+        let mut amp = amplitude.unwrap_or(0.0);
+        for e in &self.command[j] {
+            if e.info().linear {
+                g *= e.frequency_response(omega, amp);
+            } else if amplitude.is_some() {
+                let n = e.frequency_response(omega, amp);
+                g *= n;
+                amp *= n.norm();
+            }
+        }
+        if amplitude.is_some() {
+            for e in &self.servo_limits[j] {
+                g *= e.frequency_response(omega, amp);
+            }
+        }
+        g *= self.lowpass[j].tf().freq(omega);
+        g *= Complex64::new(self.a[i][j] + self.b[i][j] * omega * omega, 0.0);
+        for e in &self.channel[i][j] {
+            g *= e.frequency_response(omega, amp);
+        }
+        for e in &self.sensor[i] {
+            g *= e.frequency_response(omega, amp);
+        }
+        g
+    }
+
+    /// The simulated first harmonic of both outputs, divided by the input's, for a sine of
+    /// `amplitude` (m) at `omega` on `excited` around the current operating point: the
+    /// numerically exact describing response of the whole plant, nonlinearities included.
+    pub fn simulated_response(
+        &mut self,
+        excited: Axis,
+        omega: f64,
+        amplitude: f64,
+    ) -> [Complex64; 2] {
+        let op = self.operating_point;
+        self.reset(op);
+        let period = 2.0 * std::f64::consts::PI / omega;
+        let per = (period / self.h).round().max(8.0) as usize;
+        let slowest = self.slowest_time_constant();
+        let n_settle = (((10.0 * slowest).max(3.0 * period)) / self.h).ceil() as usize;
+        let n_keep = per * 4;
+        let mut zx = Vec::with_capacity(n_keep);
+        let mut zy = Vec::with_capacity(n_keep);
+        for k in 1..=(n_settle + n_keep) {
+            let t = k as f64 * self.h;
+            let mut r = op;
+            r[excited.index()] += amplitude * (omega * t).sin();
+            let out = self.step(r);
+            if k > n_settle {
+                zx.push(out.zmp[0]);
+                zy.push(out.zmp[1]);
+            }
+        }
+        let t0 = (n_settle + 1) as f64 * self.h;
+        [
+            first_harmonic(&zx, omega, self.h, t0) / amplitude,
+            first_harmonic(&zy, omega, self.h, t0) / amplitude,
+        ]
+    }
+
+    /// A bound on the slowest time constant of the linear dynamics, s (for settling times).
+    pub fn slowest_time_constant(&self) -> f64 {
+        let mut tau: f64 = 0.0;
+        for lp in &self.lowpass {
+            tau = tau.max(1.0 / (lp.zeta.min(1.0) * lp.omega_n));
+        }
+        let chains = self
+            .command
+            .iter()
+            .chain(self.sensor.iter())
+            .chain(self.channel.iter().flatten());
+        for chain in chains {
+            for e in chain {
+                if let Some(tf) = e.transfer_function() {
+                    tau = tau.max(crate::lti::slowest_time_constant(&tf.den));
+                }
+            }
+        }
+        tau
+    }
+}
