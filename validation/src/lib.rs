@@ -1,1 +1,4 @@
-
+pub mod campaign;
+pub mod io;
+pub mod plot;
+pub mod virtual_robot;
