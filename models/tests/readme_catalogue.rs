@@ -6,7 +6,9 @@ use zmp_models::REGISTRY;
 #[test]
 fn readme_documents_every_effect_and_parameter() {
     let readme = include_str!("../../README.md");
-    let table_start = readme.find("### Effects").expect("README has an Effects section");
+    let table_start = readme
+        .find("### Effects")
+        .expect("README has an Effects section");
     let table = &readme[table_start..];
     let table = &table[..table.find("\n### ").unwrap_or(table.len())];
     for info in REGISTRY {
