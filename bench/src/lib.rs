@@ -1,1 +1,114 @@
+//! Benchmarks of the real-time hot loop (see `README.md`): the models and inputs shared by the
+//! criterion bench `benches/realtime.rs` and the instruction-count binary
+//! `src/bin/realtime_count.rs`.
 
+pub mod realtime {
+    use std::f64::consts::PI;
+    use zmp_models::controller::{CascadeController, CascadeParams};
+    use zmp_models::{Binding, Channel, ModelSpec, Plant, REGISTRY};
+
+    /// The paper's SILO2 model (`models/params/silo2-paper.toml`).
+    pub const PAPER: &str = include_str!("../../models/params/silo2-paper.toml");
+
+    /// Every effect of the registry besides the paper's, at realistic SILO2-like values.
+    pub const EXTRA_EFFECTS: &str = r#"
+[acceleration_saturation]
+limit = 3.0          # m/s2
+
+[coulomb_friction]
+level = 0.05         # m/s2
+
+[time_delay]
+delay = 0.012        # s
+
+[backlash]
+width = 0.002        # m
+
+[operating_point_dependence]
+da_dx = 0.5
+db_dy = -0.3
+
+[structural_mode]
+omega_n = 60.0       # rad/s
+zeta = 0.05
+
+[sensor_lowpass]
+cutoff = 100.0       # rad/s
+
+[sensor_drift]
+offset = 0.001       # m
+rate = 1e-5          # m/s
+"#;
+
+    /// Internal step of the plant, s.
+    pub const PLANT_STEP: f64 = 1e-3;
+    /// Sample period of the controller, s.
+    pub const CONTROLLER_PERIOD: f64 = 0.01;
+    /// Length of the input tables: a power of two holding whole periods.
+    pub const TABLE: usize = 4096;
+
+    pub fn paper_spec() -> ModelSpec {
+        ModelSpec::parse(PAPER, "silo2-paper.toml").expect("the paper's model parses")
+    }
+
+    /// The paper's model with every effect of the registry on; the uncertainty is a random
+    /// stable `Delta` of gain 0.5 on every channel (its own seed per channel).
+    pub fn all_effects_spec() -> ModelSpec {
+        let text = format!("{PAPER}\n{EXTRA_EFFECTS}");
+        let mut spec = ModelSpec::parse(&text, "all-effects").expect("all-effects model parses");
+        for (n, ch) in Channel::ALL.iter().enumerate() {
+            let b = Binding::Channel(*ch);
+            assert!(spec.set_value("uncertainty", b, "delta", 0.5));
+            assert!(spec.set_value("uncertainty", b, "delta_seed", 7.0 + n as f64));
+        }
+        for info in REGISTRY.iter() {
+            assert!(spec.has(info.kind), "bench model lacks {}", info.kind);
+        }
+        spec
+    }
+
+    /// CoM reference: sines of 1 cm and 0.8 cm (4 and 3 whole periods over the table, about
+    /// 6 and 4.6 rad/s at 1 ms) around a small operating point.
+    pub fn com_ref_table() -> Vec<[f64; 2]> {
+        (0..TABLE)
+            .map(|k| {
+                let t = k as f64 / TABLE as f64;
+                [
+                    0.02 + 0.010 * (2.0 * PI * 4.0 * t).sin(),
+                    -0.01 + 0.008 * (2.0 * PI * 3.0 * t).sin(),
+                ]
+            })
+            .collect()
+    }
+
+    /// Measured ZMP fed to the controller while it tracks 0.17 m.
+    pub fn zmp_table() -> Vec<[f64; 2]> {
+        (0..TABLE)
+            .map(|k| {
+                let t = k as f64 / TABLE as f64;
+                [
+                    0.15 + 0.01 * (2.0 * PI * t).sin(),
+                    0.002 * (4.0 * PI * t).cos(),
+                ]
+            })
+            .collect()
+    }
+
+    /// The plant of `spec` at the table's operating point, past its start-up transient.
+    pub fn settled_plant(spec: &ModelSpec) -> Plant {
+        let mut plant = Plant::new(spec, PLANT_STEP).expect("plant builds");
+        let input = com_ref_table();
+        plant.set_operating_point(input[0]);
+        plant.reset(input[0]);
+        for r in input.iter().cycle().take(4 * TABLE) {
+            plant.step(*r);
+        }
+        plant
+    }
+
+    pub fn controller() -> CascadeController {
+        let mut ctrl = CascadeController::new(CascadeParams::silo2(), CONTROLLER_PERIOD);
+        ctrl.reset_to_com([0.14, 0.0]);
+        ctrl
+    }
+}

@@ -11,12 +11,17 @@ use crate::effect::{Binding, BuildContext, Effect, Site};
 use crate::effects::pendulum::Pendulum;
 use crate::effects::servo::Servo;
 use crate::effects::tracking_lowpass::TrackingLowpass;
-use crate::harmonic::first_harmonic;
+use crate::harmonic::steady_first_harmonics;
 use crate::model_file::{ModelError, ModelSpec};
 use num_complex::Complex64;
 
 /// Default internal step of the plant, s.
 pub const DEFAULT_STEP: f64 = 1e-3;
+
+/// Longest wait for a periodic steady state in [`Plant::simulated_response`], in periods and
+/// in steps, beyond the linear settling time.
+pub const MAX_SETTLE_PERIODS: usize = 2000;
+pub const MAX_SETTLE_STEPS: usize = 4_000_000;
 
 /// What the plant gives after a step.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -292,6 +297,7 @@ impl Plant {
     /// The simulated first harmonic of both outputs, divided by the input's, for a sine of
     /// `amplitude` (m) at `omega` on `excited` around the current operating point: the
     /// numerically exact describing response of the whole plant, nonlinearities included.
+    /// The fit waits for the periodic steady state (see [`steady_first_harmonics`]).
     pub fn simulated_response(
         &mut self,
         excited: Axis,
@@ -304,31 +310,22 @@ impl Plant {
         let per = (period / self.h).round().max(8.0) as usize;
         let slowest = self.slowest_time_constant();
         let n_settle = (((10.0 * slowest).max(3.0 * period)) / self.h).ceil() as usize;
-        let n_keep = per * 4;
-        let mut zx = Vec::with_capacity(n_keep);
-        let mut zy = Vec::with_capacity(n_keep);
-        for k in 1..=(n_settle + n_keep) {
-            let t = k as f64 * self.h;
+        let n_max = n_settle + (per * MAX_SETTLE_PERIODS).min(MAX_SETTLE_STEPS);
+        let h = self.h;
+        let z = steady_first_harmonics(omega, h, n_settle, n_max, |k| {
+            let t = k as f64 * h;
             let mut r = op;
             r[excited.index()] += amplitude * (omega * t).sin();
-            let out = self.step(r);
-            if k > n_settle {
-                zx.push(out.zmp[0]);
-                zy.push(out.zmp[1]);
-            }
-        }
-        let t0 = (n_settle + 1) as f64 * self.h;
-        [
-            first_harmonic(&zx, omega, self.h, t0) / amplitude,
-            first_harmonic(&zy, omega, self.h, t0) / amplitude,
-        ]
+            self.step(r).zmp
+        });
+        [z[0] / amplitude, z[1] / amplitude]
     }
 
     /// A bound on the slowest time constant of the linear dynamics, s (for settling times).
     pub fn slowest_time_constant(&self) -> f64 {
         let mut tau: f64 = 0.0;
         for lp in &self.lowpass {
-            tau = tau.max(1.0 / (lp.zeta.min(1.0) * lp.omega_n));
+            tau = tau.max(lp.slowest_time_constant());
         }
         let chains = self
             .command

@@ -7,8 +7,10 @@
 //! at either end of the step, the exact linear step is kept.
 
 use crate::effect::Effect;
-use crate::harmonic::first_harmonic;
+use crate::effects::tracking_lowpass::TrackingLowpass;
+use crate::harmonic::steady_first_harmonics;
 use crate::lti::discretise_foh;
+use crate::plant::{MAX_SETTLE_PERIODS, MAX_SETTLE_STEPS};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
@@ -147,20 +149,16 @@ pub fn servo_describing_function(
         let mut servo = Servo::new(omega_n, zeta, h);
         servo.reset(0.0);
         let period = 2.0 * std::f64::consts::PI / omega;
-        let settle = (8.0 / (zeta * omega_n)).max(3.0 * period);
+        let slowest = TrackingLowpass { omega_n, zeta }.slowest_time_constant();
+        let settle = (8.0 * slowest).max(3.0 * period);
         let n_settle = (settle / h).ceil() as usize;
         let per = (period / h).round().max(8.0) as usize;
-        let n_keep = per * 4;
-        let mut y = Vec::with_capacity(n_keep);
-        for k in 1..=(n_settle + n_keep) {
+        let n_max = n_settle + (per * MAX_SETTLE_PERIODS).min(MAX_SETTLE_STEPS);
+        let [x] = steady_first_harmonics(omega, h, n_settle, n_max, |k| {
             let t = k as f64 * h;
-            let s = servo.step(amplitude * (omega * t).sin(), limits);
-            if k > n_settle {
-                y.push(s.position);
-            }
-        }
-        let t0 = (n_settle + 1) as f64 * h;
-        first_harmonic(&y, omega, h, t0) / amplitude
+            [servo.step(amplitude * (omega * t).sin(), limits).position]
+        });
+        x / amplitude
     };
     let with = run(limits);
     let without = run(&mut []);

@@ -73,6 +73,16 @@ impl TrackingLowpass {
             Poly::new(&[w2, 2.0 * self.zeta * self.omega_n, 1.0]),
         )
     }
+
+    /// Time constant of the slowest pole, s: `1/(zeta wn)` when underdamped; when overdamped
+    /// the slow real pole `wn (zeta - sqrt(zeta^2 - 1))`, i.e. `tau = (zeta + sqrt(zeta^2 - 1))/wn`.
+    pub fn slowest_time_constant(&self) -> f64 {
+        if self.zeta < 1.0 {
+            1.0 / (self.zeta * self.omega_n)
+        } else {
+            (self.zeta + (self.zeta * self.zeta - 1.0).sqrt()) / self.omega_n
+        }
+    }
 }
 
 impl Effect for TrackingLowpass {
