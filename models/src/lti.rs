@@ -221,19 +221,39 @@ impl DiscreteLti {
     /// Advances one step; the input has moved linearly from the previous value to `u`.
     #[inline]
     pub fn step(&mut self, u: f64) -> f64 {
-        let n = self.n;
+        // Dispatch on the order so each loop is unrolled at compile time.
+        match self.n {
+            0 => {
+                self.u_prev = u;
+                self.d * u
+            }
+            1 => self.step_n::<1>(u),
+            2 => self.step_n::<2>(u),
+            3 => self.step_n::<3>(u),
+            4 => self.step_n::<4>(u),
+            5 => self.step_n::<5>(u),
+            _ => self.step_n::<MAX_ORDER>(u),
+        }
+    }
+
+    #[inline(always)]
+    fn step_n<const N: usize>(&mut self, u: f64) -> f64 {
         let du = u - self.u_prev;
-        let mut next = [0.0; MAX_ORDER];
-        for (i, nx) in next.iter_mut().enumerate().take(n) {
+        let mut next = [0.0; N];
+        for (i, nx) in next.iter_mut().enumerate() {
             let mut acc = self.g0[i] * self.u_prev + self.g1[i] * du;
-            for j in 0..n {
+            for j in 0..N {
                 acc += self.phi[i][j] * self.x[j];
             }
             *nx = acc;
         }
-        self.x = next;
+        let mut y = self.d * u;
+        for i in 0..N {
+            self.x[i] = next[i];
+            y += self.c[i] * next[i];
+        }
         self.u_prev = u;
-        self.output(u)
+        y
     }
 
     #[inline]

@@ -54,7 +54,17 @@ impl Effect for CoulombFriction {
     }
     #[inline]
     fn servo_acceleration(&mut self, demand: f64, velocity: f64) -> f64 {
-        demand - self.level * (velocity * self.inv_v_s).tanh()
+        let z = velocity * self.inv_v_s;
+        // tanh is exactly +-1 in f64 beyond |z| = 19.1: a constant force, which lets the servo
+        // take its exact linear step.
+        let f = if z > 19.5 {
+            1.0
+        } else if z < -19.5 {
+            -1.0
+        } else {
+            z.tanh()
+        };
+        demand - self.level * f
     }
 }
 

@@ -69,8 +69,10 @@ impl Effect for TimeDelay {
         let n = self.buf.len();
         self.head = if self.head + 1 == n { 0 } else { self.head + 1 };
         self.buf[self.head] = u;
-        let i0 = (self.head + n - self.whole) % n;
-        let i1 = (self.head + n - self.whole - 1) % n;
+        // Indices behind the head, wrapped without a division.
+        let back = |k: usize, head: usize| if head >= k { head - k } else { head + n - k };
+        let i0 = back(self.whole, self.head);
+        let i1 = back(self.whole + 1, self.head);
         (1.0 - self.frac) * self.buf[i0] + self.frac * self.buf[i1]
     }
 }

@@ -99,7 +99,30 @@ pub fn channel_factor(v: &[f64]) -> TransferFunction {
 }
 
 fn build(ctx: &BuildContext, v: &[f64]) -> Box<dyn Effect> {
+    if v[3] == 0.0 {
+        // Nominal: 1 + W * 0 is exactly one; skip the filter.
+        return Box::new(Nominal);
+    }
     Box::new(LtiEffect::new(&INFO, channel_factor(v), ctx.h))
+}
+
+/// The nominal realisation `Delta = 0`: the channel passes unchanged.
+#[derive(Debug, Clone, Copy)]
+struct Nominal;
+
+impl Effect for Nominal {
+    fn info(&self) -> &'static EffectInfo {
+        &INFO
+    }
+    fn frequency_response(&self, _omega: f64, _amplitude: f64) -> num_complex::Complex64 {
+        num_complex::Complex64::new(1.0, 0.0)
+    }
+    fn reset(&mut self, u: f64) -> f64 {
+        u
+    }
+    fn transfer_function(&self) -> Option<TransferFunction> {
+        Some(TransferFunction::gain(1.0))
+    }
 }
 
 #[cfg(test)]
