@@ -197,6 +197,23 @@ pub fn demo(out: &Path, force: bool, json: bool) -> Result<()> {
     ));
     say(&format!("   -> {}", cl.display()));
 
+    say("4. Identification of the virtual campaign (seed section 5)");
+    let (id, files) = crate::identify::demo_step(&camp, &camp_dir, out, quiet)?;
+    say(&format!(
+        "   {} of {} records used, reduced chi-square {:.2} -> {}, report {}",
+        id.used().count(),
+        id.records.len(),
+        id.reduced_chi2,
+        out.join("identified.toml").display(),
+        files.html.display()
+    ));
+    for p in id.parameters() {
+        say(&format!(
+            "   {:<28} {:>11.6} +- {:.2e}",
+            p.name, p.value, p.stderr
+        ));
+    }
+
     if json {
         let s = Summary {
             output: out.to_path_buf(),

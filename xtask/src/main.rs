@@ -3,6 +3,7 @@
 mod ci;
 mod demo;
 mod env;
+mod identify;
 mod setup;
 mod simulate;
 
@@ -69,6 +70,39 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// Identify the seed's ZMP model from a stepped-sine campaign (zmp-campaign/1): steady
+    /// state, FFT + harmonic regression per record, weighted pendulum + low-pass fit with
+    /// standard errors, acceleration saturation, uncertainty weights (first seed, section 5).
+    Identify {
+        /// Campaign folder (with campaign.toml).
+        campaign: PathBuf,
+        /// Model file to write (zmp-model/1). Default: next to the campaign folder,
+        /// <campaign>/../<campaign-folder-name>-identified.toml.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Write an HTML report with Bode figures (SVG) into this folder.
+        #[arg(long)]
+        report: Option<PathBuf>,
+        /// Tracking low-pass WN,ZETA (rad/s, 1) used when the data do not determine it
+        /// (default 30,1, the seed's).
+        #[arg(long)]
+        bandwidth: Option<String>,
+        /// A model file whose structure is refitted: its pendulum, low-pass and uncertainty
+        /// are identified, its other effects kept (default: the seed's structure).
+        #[arg(long)]
+        model: Option<PathBuf>,
+        /// Also put a detected acceleration limit into the model file (by default it is
+        /// reported, and the model stays the seed's linear one).
+        #[arg(long)]
+        include_saturation: bool,
+        /// Overwrite an existing model file / report files.
+        #[arg(long)]
+        force: bool,
+        /// Print a machine-readable summary (parameters, standard errors, excluded records,
+        /// warnings).
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -90,6 +124,32 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Setup { quiet } => setup::setup(quiet).map(|_| ()),
         Cmd::Ci => ci::ci(),
         Cmd::Demo { out, force, json } => demo::demo(&out, force, json),
+        Cmd::Identify {
+            campaign,
+            out,
+            report,
+            bandwidth,
+            model,
+            include_saturation,
+            force,
+            json,
+        } => {
+            let bw = bandwidth
+                .as_deref()
+                .map(identify::parse_bandwidth)
+                .transpose()?;
+            identify::identify(&identify::IdentifyArgs {
+                campaign: &campaign,
+                out: out.as_deref(),
+                report: report.as_deref(),
+                model: model.as_deref(),
+                bandwidth: bw,
+                include_saturation,
+                force,
+                json,
+            })
+            .map(|_| ())
+        }
         Cmd::Simulate {
             model,
             design,

@@ -1,0 +1,104 @@
+//! The whole identification pipeline (read the campaign from disk + identify) on the reference
+//! virtual SILO2 campaign (168 records, ~680k rows, ~25 MB of CSV, acceleration limit
+//! 1.2 m/s2), and the same pipeline written plainly with numpy (`bench/peers/identify_numpy.py`)
+//! timed in the same run. The peer runs with `$ZMP_PYTHON` (default
+//! `~/.cache/zmp-toolkit/venv/bin/python`); it is skipped with a note if that is missing.
+
+use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+use zmp_models::{Axis, Binding, EffectInstance, ModelSpec};
+use zmp_validation::campaign::{read_campaign, write_campaign};
+use zmp_validation::identify::{identify, IdentifyOptions};
+use zmp_validation::virtual_robot::{simulate_campaign, ExperimentDesign};
+
+fn campaign_dir(tmp: &Path) -> PathBuf {
+    let mut spec = ModelSpec::parse(
+        include_str!("../../models/params/silo2-paper.toml"),
+        "silo2-paper.toml",
+    )
+    .expect("paper model");
+    for axis in Axis::BOTH {
+        spec.insert(EffectInstance {
+            info: zmp_models::lookup("acceleration_saturation").expect("registered"),
+            binding: Binding::Axis(axis),
+            values: vec![1.2],
+        });
+    }
+    let camp = simulate_campaign(&spec, &ExperimentDesign::reference()).expect("simulate");
+    let dir = tmp.join("virtual-silo2");
+    write_campaign(&dir, &camp, true).expect("write campaign");
+    dir
+}
+
+fn python() -> PathBuf {
+    std::env::var_os("ZMP_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            let home = std::env::var_os("HOME").unwrap_or_default();
+            PathBuf::from(home).join(".cache/zmp-toolkit/venv/bin/python")
+        })
+}
+
+fn pipeline(dir: &Path) -> f64 {
+    let camp = read_campaign(dir).expect("read");
+    let id = identify(&camp, &IdentifyOptions::default()).expect("identify");
+    id.a[0][0].value
+}
+
+fn bench(c: &mut Criterion) {
+    let tmp = tempfile::tempdir().expect("tempdir");
+    let dir = campaign_dir(tmp.path());
+    let mut g = c.benchmark_group("identify");
+    g.sample_size(10).measurement_time(Duration::from_secs(8));
+    g.bench_function("read_and_fit_168", |b| b.iter(|| black_box(pipeline(&dir))));
+    g.finish();
+
+    // Same run: our wall time (median of 5) against the numpy peer's (median of 3).
+    let mut ours: Vec<f64> = (0..5)
+        .map(|_| {
+            let t = Instant::now();
+            black_box(pipeline(&dir));
+            t.elapsed().as_secs_f64()
+        })
+        .collect();
+    ours.sort_by(|a, b| a.total_cmp(b));
+    let ours = ours[ours.len() / 2];
+    let py = python();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("peers/identify_numpy.py");
+    let mut peer = Vec::new();
+    for _ in 0..3 {
+        match std::process::Command::new(&py)
+            .arg(&script)
+            .arg(&dir)
+            .output()
+        {
+            Ok(o) if o.status.success() => {
+                let v: serde_json::Value =
+                    serde_json::from_slice(&o.stdout).expect("peer prints JSON");
+                peer.push(v["wall_s"].as_f64().expect("wall_s"));
+            }
+            Ok(o) => {
+                eprintln!("numpy peer failed: {}", String::from_utf8_lossy(&o.stderr));
+                break;
+            }
+            Err(e) => {
+                eprintln!("numpy peer not run ({}: {e}); set ZMP_PYTHON", py.display());
+                break;
+            }
+        }
+    }
+    if peer.is_empty() {
+        println!("identify/read_and_fit_168: ours {ours:.3} s; numpy peer not run");
+    } else {
+        peer.sort_by(|a, b| a.total_cmp(b));
+        let p = peer[peer.len() / 2];
+        println!(
+            "identify/read_and_fit_168: ours {ours:.3} s, numpy peer {p:.3} s, ratio {:.1}x",
+            p / ours
+        );
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,1208 @@
+//! Identification (first seed, section 5): from a stepped-sine campaign to the seed's ZMP model
+//! with standard errors and uncertainty weights.
+//!
+//! The pipeline, per record then over the campaign:
+//! 1. steady state: where the transient ends, found from the data (sliding one-period windows
+//!    whose phasors must stay within their noise of the final value); whole periods kept;
+//! 2. first estimate: Hann window + FFT, amplitude and phase of the fundamental (and a check
+//!    that the excitation is at the frequency the manifest says);
+//! 3. nonlinear regression: DC + K harmonics of the input and both outputs by linear least
+//!    squares at a given frequency, the frequency refined on the summed residual (variable
+//!    projection); per record the column of `G` for the excited input, its standard error,
+//!    the harmonic distortion and the noise;
+//! 4. pendulum fit: `G_ij = (a_ij + b_ij w^2) H(jw)` for the four channels jointly with a shared
+//!    tracking low-pass `H = wn^2/(s^2 + 2 zeta wn s + wn^2)`, weighted Levenberg-Marquardt,
+//!    standard errors from `(J^T W J)^-1` scaled by the reduced chi-square when above one;
+//! 5. bandwidth: `wn, zeta` kept from the data when they are determined (relative standard
+//!    errors below 25 %), otherwise fixed at the given value and said so;
+//! 6. saturation: records with a significant 3rd harmonic and a compressed first-harmonic gain
+//!    are flagged and left out of the linear fit; the acceleration limit is estimated by
+//!    matching the servo's describing function;
+//! 7. uncertainty: per channel and frequency, the largest `|G_meas - G_model|` (additive),
+//!    divided by `|G_model|` (multiplicative), enveloped by `W = k (s + z)/(s + p)`;
+//! 8. the model file, with `[stderr]` and `[provenance]`.
+
+// Index loops read as the matrix algebra they implement.
+#![allow(clippy::needless_range_loop)]
+
+mod fit;
+pub mod report;
+mod sine;
+
+use crate::campaign::{Campaign, Record};
+use fit::{Point, NP};
+use num_complex::Complex64;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::f64::consts::PI;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use zmp_models::effect::BuildContext;
+use zmp_models::{Axis, Binding, Channel, EffectInstance, ModelSpec, Plant};
+
+/// The SILO2 values of the first seed (section 6), for comparison in reports.
+pub const SEED_PENDULUM: [(&str, f64); 8] = [
+    ("a11", 0.8293),
+    ("a12", 0.07455),
+    ("a21", 0.1895),
+    ("a22", 1.245),
+    ("b11", 0.2767),
+    ("b12", 0.005428),
+    ("b21", 0.09979),
+    ("b22", 0.1012),
+];
+/// The seed's tracking low-pass `(omega_n, zeta)` (section 6.3).
+pub const SEED_BANDWIDTH: (f64, f64) = (30.0, 1.0);
+
+/// Options of [`identify`].
+#[derive(Debug, Clone)]
+pub struct IdentifyOptions {
+    /// Harmonics fitted per record (1 = fundamental only); 3 by default.
+    pub harmonics: usize,
+    /// The tracking low-pass `(omega_n rad/s, zeta)` used when the data do not determine it
+    /// (and as the start of its estimate). `None`: the start model's, else the seed's (30, 1).
+    pub given_bandwidth: Option<(f64, f64)>,
+    /// Use `given_bandwidth` as it is, without estimating it from the data.
+    pub fix_bandwidth: bool,
+    /// A model whose structure is refitted: its core effects (pendulum, tracking low-pass,
+    /// uncertainty) are identified, its other linear effects enter the fit with their values
+    /// fixed (as a complex factor per record), its nonlinear ones are kept as they are.
+    pub start_model: Option<ModelSpec>,
+    /// Where the campaign was read from, for the provenance.
+    pub campaign_path: Option<PathBuf>,
+    /// Detect acceleration saturation (on by default).
+    pub detect_saturation: bool,
+    /// Put a detected acceleration limit into the model file. Off by default: the identified
+    /// model is the seed's linear one, and nonlinear effects are added through diagnose and
+    /// augment, each with held-out evidence and a ledger entry. A start model that names
+    /// `acceleration_saturation` has its limit refitted regardless.
+    pub include_saturation: bool,
+    /// Worker threads for the per-record analysis (`None`: the available cores).
+    pub threads: Option<usize>,
+    /// Relative accuracy floor of a measured gain (added in quadrature to its noise-based
+    /// standard error): sensor calibration, sampling and interpolation effects that white
+    /// noise does not describe. 3e-4 by default.
+    pub relative_floor: f64,
+}
+
+impl Default for IdentifyOptions {
+    fn default() -> Self {
+        IdentifyOptions {
+            harmonics: 3,
+            given_bandwidth: None,
+            fix_bandwidth: false,
+            start_model: None,
+            campaign_path: None,
+            detect_saturation: true,
+            include_saturation: false,
+            threads: None,
+            relative_floor: 3e-4,
+        }
+    }
+}
+
+/// The analysis of one record.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RecordFit {
+    /// Index of the record in the campaign.
+    pub index: usize,
+    pub excited: Axis,
+    /// Excitation frequency from the manifest, rad/s.
+    pub omega: f64,
+    /// Frequency refined by the sine fit, rad/s.
+    pub omega_fit: f64,
+    /// Amplitude of the excited reference from the manifest, m.
+    pub amplitude: f64,
+    /// Amplitude of the excited reference fitted in the data, m.
+    pub input_amplitude: f64,
+    pub operating_point: [f64; 2],
+    /// Column of `G` for the excited input: `[G_xj, G_yj]` (output zmp_x, zmp_y).
+    #[serde(serialize_with = "ser_complex2")]
+    pub g: [Complex64; 2],
+    /// Standard deviation of the real and of the imaginary part of each `g`.
+    pub sigma: [f64; 2],
+    /// RMS of harmonics 2..K over the fundamental, per output.
+    pub distortion: [f64; 2],
+    /// The same for the excited input.
+    pub input_distortion: f64,
+    /// Third-harmonic amplitude of each output over its standard error.
+    pub third_harmonic_snr: [f64; 2],
+    /// Residual standard deviation of each output after the harmonic fit, m.
+    pub noise_std: [f64; 2],
+    /// Where the steady state starts, s from the record's first sample.
+    pub steady_start_s: f64,
+    /// Whole periods of steady state used.
+    pub periods: usize,
+    /// `Some(reason)` if the record is not used in the linear fit.
+    pub excluded: Option<String>,
+}
+
+fn ser_complex2<S: serde::Serializer>(g: &[Complex64; 2], s: S) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeSeq;
+    let mut seq = s.serialize_seq(Some(2))?;
+    for v in g {
+        seq.serialize_element(&[v.re, v.im])?;
+    }
+    seq.end()
+}
+
+/// Reasons a record is left out (the strings that [`RecordFit::excluded`] holds).
+pub mod reason {
+    pub const TOO_SHORT: &str = "shorter than two periods";
+    pub const NO_STEADY: &str = "fewer than two whole periods of steady state";
+    pub const ZERO_AMPLITUDE: &str = "zero amplitude: the excited reference carries no sine";
+    pub const CONSTANT_OUTPUT: &str = "constant output (ZMP sensor dead or disconnected?)";
+    pub const WRONG_FREQUENCY: &str = "the excitation is not at the frequency campaign.toml gives";
+    pub const BAD_DATA: &str = "the harmonic fit failed (non-finite or degenerate data)";
+    pub const SATURATED: &str =
+        "acceleration saturation (first-harmonic gain off the linear model, odd harmonics)";
+}
+
+/// A fitted parameter.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Parameter {
+    /// Dotted name as in the model file (`pendulum.a11`).
+    pub name: String,
+    pub value: f64,
+    /// Standard error (0 for a parameter held fixed).
+    pub stderr: f64,
+    /// Whether it was estimated from the data (false: given and held fixed).
+    pub estimated: bool,
+}
+
+impl Parameter {
+    /// 95 % confidence interval (normal approximation).
+    pub fn ci95(&self) -> (f64, f64) {
+        (
+            self.value - 1.96 * self.stderr,
+            self.value + 1.96 * self.stderr,
+        )
+    }
+}
+
+/// The tracking low-pass found.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Bandwidth {
+    pub omega_n: f64,
+    pub zeta: f64,
+    pub omega_n_stderr: f64,
+    pub zeta_stderr: f64,
+    /// True if estimated from the data, false if the given value was used.
+    pub estimated: bool,
+    /// Why (for reports).
+    pub note: String,
+}
+
+/// The acceleration saturation found.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Saturation {
+    /// Records flagged as saturated (left out of the linear fit).
+    pub records: Vec<usize>,
+    /// Records with significant odd harmonics but no gain compression (kept in the fit).
+    pub harmonic_only: Vec<usize>,
+    /// Estimated acceleration limit, m/s².
+    pub limit: Option<f64>,
+    pub limit_stderr: Option<f64>,
+    /// Per flagged record: the demanded CoM acceleration amplitude `A w^2 |H|`, m/s².
+    pub demanded_acceleration: Vec<(usize, f64)>,
+}
+
+/// One point of the uncertainty database.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct UncertaintyPoint {
+    pub omega: f64,
+    /// Largest `|G_meas - G_model|` over the records at this frequency.
+    pub additive: f64,
+    /// `additive / |G_model|`.
+    pub multiplicative: f64,
+    pub records: usize,
+}
+
+/// The uncertainty of one channel.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ChannelUncertainty {
+    /// `G11`..`G22`.
+    pub channel: String,
+    pub points: Vec<UncertaintyPoint>,
+    /// `W = k (s + z)/(s + p)`: `(k, z, p)`.
+    pub weight: (f64, f64, f64),
+}
+
+/// Everything identification found.
+#[derive(Debug, Clone)]
+pub struct Identification {
+    pub campaign_name: Option<String>,
+    pub records: Vec<RecordFit>,
+    /// `a[i][j]`, `b[i][j]` with their standard errors.
+    pub a: [[Parameter; 2]; 2],
+    pub b: [[Parameter; 2]; 2],
+    pub bandwidth: Bandwidth,
+    pub saturation: Saturation,
+    pub uncertainty: Vec<ChannelUncertainty>,
+    /// Reduced chi-square of the pendulum fit (about 1 when the model explains the data to
+    /// within the noise).
+    pub reduced_chi2: f64,
+    /// Each names the records it is about.
+    pub warnings: Vec<String>,
+    /// The identified model, with `[stderr]` and `[provenance]`.
+    pub model: ModelSpec,
+}
+
+impl Identification {
+    /// Records used in the linear fit.
+    pub fn used(&self) -> impl Iterator<Item = &RecordFit> {
+        self.records.iter().filter(|r| r.excluded.is_none())
+    }
+
+    /// Every fitted parameter, pendulum first.
+    pub fn parameters(&self) -> Vec<Parameter> {
+        let mut v = Vec::new();
+        for m in [&self.a, &self.b] {
+            for row in m {
+                v.extend(row.iter().cloned());
+            }
+        }
+        v.push(Parameter {
+            name: "tracking_lowpass.omega_n".into(),
+            value: self.bandwidth.omega_n,
+            stderr: self.bandwidth.omega_n_stderr,
+            estimated: self.bandwidth.estimated,
+        });
+        v.push(Parameter {
+            name: "tracking_lowpass.zeta".into(),
+            value: self.bandwidth.zeta,
+            stderr: self.bandwidth.zeta_stderr,
+            estimated: self.bandwidth.estimated,
+        });
+        if let Some(l) = self.saturation.limit {
+            v.push(Parameter {
+                name: "acceleration_saturation.limit".into(),
+                value: l,
+                stderr: self.saturation.limit_stderr.unwrap_or(f64::NAN),
+                estimated: true,
+            });
+        }
+        v
+    }
+
+    /// The linear model's `G_ij(j omega)` (without uncertainty).
+    pub fn model_response(&self, i: usize, j: usize, omega: f64) -> Complex64 {
+        let h = fit::lowpass(omega, self.bandwidth.omega_n, self.bandwidth.zeta);
+        (self.a[i][j].value + self.b[i][j].value * omega * omega) * h
+    }
+}
+
+/// Identification errors; they name the records concerned.
+#[derive(Debug, thiserror::Error)]
+pub enum IdentifyError {
+    #[error("the campaign has no records")]
+    Empty,
+    #[error("no usable record: {0}")]
+    NoUsableRecords(String),
+    #[error("{0}")]
+    FrequencySpan(String),
+    #[error("the pendulum fit failed: {0}")]
+    FitFailed(String),
+}
+
+/// `records 3, 17` / `record 3`.
+pub fn name_records(ix: &[usize]) -> String {
+    let list: Vec<String> = ix.iter().map(|i| i.to_string()).collect();
+    if ix.len() == 1 {
+        format!("record {}", list[0])
+    } else {
+        format!("records {}", list.join(", "))
+    }
+}
+
+fn excluded(rec: &Record, index: usize, why: &str) -> RecordFit {
+    RecordFit {
+        index,
+        excited: rec.meta.excited,
+        omega: rec.meta.omega,
+        omega_fit: rec.meta.omega,
+        amplitude: rec.meta.amplitude,
+        input_amplitude: 0.0,
+        operating_point: rec.meta.operating_point,
+        g: [Complex64::new(f64::NAN, f64::NAN); 2],
+        sigma: [f64::NAN; 2],
+        distortion: [f64::NAN; 2],
+        input_distortion: f64::NAN,
+        third_harmonic_snr: [f64::NAN; 2],
+        noise_std: [f64::NAN; 2],
+        steady_start_s: 0.0,
+        periods: 0,
+        excluded: Some(why.to_string()),
+    }
+}
+
+fn is_constant(v: &[f64]) -> bool {
+    match v.first() {
+        None => true,
+        Some(&f) => v.iter().all(|&x| x == f),
+    }
+}
+
+/// Steps 1-3 for one record (`index` is its place in the campaign).
+pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> RecordFit {
+    let omega = rec.meta.omega;
+    let dt = rec.dt();
+    let n = rec.len();
+    if !(dt.is_finite() && dt > 0.0 && omega.is_finite() && omega > 0.0) {
+        return excluded(rec, index, reason::TOO_SHORT);
+    }
+    let per = 2.0 * PI / (omega * dt);
+    if (n as f64) < 2.0 * per || per < 4.0 {
+        return excluded(rec, index, reason::TOO_SHORT);
+    }
+    let input = rec.excitation();
+    if rec.meta.amplitude <= 0.0 || is_constant(input) {
+        return excluded(rec, index, reason::ZERO_AMPLITUDE);
+    }
+    if is_constant(&rec.zmp_x) || is_constant(&rec.zmp_y) {
+        return excluded(rec, index, reason::CONSTANT_OUTPUT);
+    }
+    // Centre every signal (conditioning of the fits).
+    let centre = |v: &[f64]| -> Vec<f64> {
+        let m = v.iter().sum::<f64>() / v.len() as f64;
+        v.iter().map(|x| x - m).collect()
+    };
+    let (u, yx, yy) = (centre(input), centre(&rec.zmp_x), centre(&rec.zmp_y));
+    if ![&u, &yx, &yy]
+        .iter()
+        .all(|s| s.iter().all(|v| v.is_finite()))
+    {
+        return excluded(rec, index, reason::BAD_DATA);
+    }
+    // 1. Steady state.
+    let Some(st) = sine::detect_steady([&u[..], &yx[..], &yy[..]], omega, dt) else {
+        return excluded(rec, index, reason::TOO_SHORT);
+    };
+    let steady_start_s = st.start as f64 * dt;
+    if st.periods < 2 {
+        let mut r = excluded(rec, index, reason::NO_STEADY);
+        r.steady_start_s = steady_start_s;
+        r.periods = st.periods;
+        return r;
+    }
+    let range = st.start..st.start + st.len;
+    let sig = [&u[range.clone()], &yx[range.clone()], &yy[range]];
+    // 2. First estimate: windowed FFT of the input; the excitation must be where the manifest
+    // says (within two FFT bins).
+    let (fft_phasors, w_fft) = sine::fft_estimate([sig[0]], omega, dt);
+    let bin = 2.0 * PI / (st.len as f64 * dt);
+    if (w_fft - omega).abs() > 2.0 * bin || fft_phasors[0].norm() == 0.0 {
+        let mut r = excluded(rec, index, reason::WRONG_FREQUENCY);
+        r.steady_start_s = steady_start_s;
+        r.periods = st.periods;
+        return r;
+    }
+    // 3. Harmonic regression with the frequency refined.
+    let k_max = opts.harmonics.clamp(1, 8);
+    let Some((w, hf)) = sine::refine_frequency(sig, omega, dt, k_max) else {
+        return excluded(rec, index, reason::BAD_DATA);
+    };
+    let p_in = hf.harmonics[0][0];
+    let nn = st.len as f64;
+    let amp_in = p_in.norm();
+    if amp_in.is_nan() || amp_in <= 1e-3 * rec.meta.amplitude.abs() || !amp_in.is_finite() {
+        return excluded(rec, index, reason::ZERO_AMPLITUDE);
+    }
+    let var_u = hf.noise_var[0];
+    let mut g = [Complex64::new(0.0, 0.0); 2];
+    let mut sigma = [0.0; 2];
+    let mut distortion = [0.0; 2];
+    let mut snr3 = [0.0; 2];
+    let mut noise = [0.0; 2];
+    for o in 0..2 {
+        let p = hf.harmonics[1 + o][0];
+        g[o] = p / p_in;
+        let var_y = hf.noise_var[1 + o];
+        // Each phasor component has variance 2 var / n over whole periods.
+        let noise_var = (2.0 / nn) * (var_y + g[o].norm_sqr() * var_u) / (amp_in * amp_in);
+        sigma[o] = (noise_var + (opts.relative_floor * g[o].norm()).powi(2)).sqrt();
+        let harm: f64 = hf.harmonics[1 + o][1..].iter().map(|h| h.norm_sqr()).sum();
+        distortion[o] = harm.sqrt() / p.norm().max(1e-300);
+        snr3[o] = if k_max >= 3 {
+            hf.harmonics[1 + o][2].norm() / ((2.0 / nn) * var_y).sqrt().max(1e-300)
+        } else {
+            0.0
+        };
+        noise[o] = var_y.sqrt();
+    }
+    let harm_in: f64 = hf.harmonics[0][1..].iter().map(|h| h.norm_sqr()).sum();
+    RecordFit {
+        index,
+        excited: rec.meta.excited,
+        omega,
+        omega_fit: w,
+        amplitude: rec.meta.amplitude,
+        input_amplitude: amp_in,
+        operating_point: rec.meta.operating_point,
+        g,
+        sigma,
+        distortion,
+        input_distortion: harm_in.sqrt() / amp_in,
+        third_harmonic_snr: snr3,
+        noise_std: noise,
+        steady_start_s,
+        periods: st.periods,
+        excluded: None,
+    }
+}
+
+/// Analyses every record on `threads` scoped threads, results in record order.
+pub fn analyse_records(
+    campaign: &Campaign,
+    opts: &IdentifyOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Vec<RecordFit> {
+    let n = campaign.records.len();
+    let workers = opts
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |w| w.get()))
+        .clamp(1, n.max(1));
+    let next = AtomicUsize::new(0);
+    let done = AtomicUsize::new(0);
+    let parts: Vec<Vec<RecordFit>> = std::thread::scope(|s| {
+        let handles: Vec<_> = (0..workers)
+            .map(|_| {
+                s.spawn(|| {
+                    let mut mine = Vec::new();
+                    loop {
+                        let k = next.fetch_add(1, Ordering::Relaxed);
+                        if k >= n {
+                            break;
+                        }
+                        mine.push(analyse_record(&campaign.records[k], k, opts));
+                        progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+                    }
+                    mine
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+            .collect()
+    });
+    let mut out: Vec<RecordFit> = parts.into_iter().flatten().collect();
+    out.sort_by_key(|r| r.index);
+    out
+}
+
+/// Identifies the campaign (see the module docs).
+pub fn identify(
+    campaign: &Campaign,
+    opts: &IdentifyOptions,
+) -> Result<Identification, IdentifyError> {
+    identify_with_progress(campaign, opts, &|_| {})
+}
+
+/// As [`identify`], calling `progress(records analysed)` during the per-record step.
+pub fn identify_with_progress(
+    campaign: &Campaign,
+    opts: &IdentifyOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Identification, IdentifyError> {
+    if campaign.records.is_empty() {
+        return Err(IdentifyError::Empty);
+    }
+    let mut records = analyse_records(campaign, opts, progress);
+    let mut warnings = Vec::new();
+    // Exclusions, grouped by reason.
+    let mut by_reason: BTreeMap<String, Vec<usize>> = BTreeMap::new();
+    for r in &records {
+        if let Some(why) = &r.excluded {
+            by_reason.entry(why.clone()).or_default().push(r.index);
+        }
+    }
+    for (why, ix) in &by_reason {
+        warnings.push(format!("{}: excluded: {why}", name_records(ix)));
+    }
+    if records.iter().all(|r| r.excluded.is_some()) {
+        return Err(IdentifyError::NoUsableRecords(warnings.join("; ")));
+    }
+    check_frequency_span(&records)?;
+
+    let (wn0, z0) = opts
+        .given_bandwidth
+        .or_else(|| {
+            opts.start_model.as_ref().and_then(|m| {
+                Some((
+                    m.value("tracking_lowpass", Binding::Axis(Axis::X), "omega_n")?,
+                    m.value("tracking_lowpass", Binding::Axis(Axis::X), "zeta")?,
+                ))
+            })
+        })
+        .unwrap_or(SEED_BANDWIDTH);
+    let factors = start_factors(opts.start_model.as_ref(), &records);
+
+    // Saturation candidates: a significant third harmonic in the directly excited output.
+    let candidates: Vec<usize> = if opts.detect_saturation && opts.harmonics >= 3 {
+        records
+            .iter()
+            .filter(|r| r.excluded.is_none())
+            .filter(|r| r.third_harmonic_snr[r.excited.index()] > 6.0)
+            .map(|r| r.index)
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let fit_without = |skip: &[usize]| -> Result<(fit::LmResult, bool, String), IdentifyError> {
+        let pts = points(&records, &factors, skip);
+        pendulum_fit(&pts, (wn0, z0), opts.fix_bandwidth)
+    };
+    let (mut lm, mut bw_est, mut bw_note) = fit_without(&candidates)?;
+    let mut saturated = Vec::new();
+    let mut harmonic_only = Vec::new();
+    for &c in &candidates {
+        let r = &records[c];
+        let j = r.excited.index();
+        let gm = fit::model(
+            &lm.params,
+            &Point {
+                i: j,
+                j,
+                omega: r.omega_fit,
+                g: r.g[j],
+                sigma: r.sigma[j],
+                factor: factors[c][j],
+            },
+        );
+        // Saturation changes the first harmonic: compressed when the clipping is mild relative
+        // to the phase lag it adds, expanded towards 4/pi of the limit when the clipped
+        // acceleration turns square; either way the gain leaves the linear model's.
+        let dev = (r.g[j] - gm).norm() / gm.norm();
+        let rel_sigma = r.sigma[j] / gm.norm();
+        if dev > (4.0 * rel_sigma).max(0.005) {
+            saturated.push(c);
+        } else {
+            harmonic_only.push(c);
+        }
+    }
+    if !harmonic_only.is_empty() {
+        let (l2, e2, n2) = fit_without(&saturated)?;
+        lm = l2;
+        bw_est = e2;
+        bw_note = n2;
+        warnings.push(format!(
+            "{}: significant odd harmonics without gain compression; kept in the fit",
+            name_records(&harmonic_only)
+        ));
+    }
+    for &c in &saturated {
+        records[c].excluded = Some(reason::SATURATED.to_string());
+    }
+    let p = lm.params;
+    let mut saturation = Saturation {
+        records: saturated.clone(),
+        harmonic_only,
+        limit: None,
+        limit_stderr: None,
+        demanded_acceleration: Vec::new(),
+    };
+    if !saturated.is_empty() {
+        for &c in &saturated {
+            let r = &records[c];
+            let h = fit::lowpass(r.omega, p[8], p[9]).norm();
+            saturation
+                .demanded_acceleration
+                .push((c, r.amplitude * r.omega * r.omega * h));
+        }
+        let (limit, se) = estimate_limit(&records, &saturated, &p, &factors);
+        saturation.limit = limit;
+        saturation.limit_stderr = se;
+        warnings.push(format!(
+            "{}: acceleration saturation detected{}; left out of the linear fit",
+            name_records(&saturated),
+            match limit {
+                Some(l) => format!(" (limit about {l:.3} m/s2)"),
+                None => String::new(),
+            }
+        ));
+    }
+    if lm.dof > 0 && lm.chi2 / lm.dof as f64 > 4.0 {
+        warnings.push(format!(
+            "the pendulum model misfits the data: reduced chi-square {:.1}; standard errors are \
+             inflated accordingly and the uncertainty weights carry the misfit",
+            lm.chi2 / lm.dof as f64
+        ));
+    }
+    if !bw_est {
+        warnings.push(bw_note.clone());
+    }
+
+    let param = |name: String, k: usize| Parameter {
+        name,
+        value: p[k],
+        stderr: lm.stderr[k],
+        estimated: true,
+    };
+    let names = ["11", "12", "21", "22"];
+    let a = [
+        [
+            param(format!("pendulum.a{}", names[0]), 0),
+            param(format!("pendulum.a{}", names[1]), 1),
+        ],
+        [
+            param(format!("pendulum.a{}", names[2]), 2),
+            param(format!("pendulum.a{}", names[3]), 3),
+        ],
+    ];
+    let b = [
+        [
+            param(format!("pendulum.b{}", names[0]), 4),
+            param(format!("pendulum.b{}", names[1]), 5),
+        ],
+        [
+            param(format!("pendulum.b{}", names[2]), 6),
+            param(format!("pendulum.b{}", names[3]), 7),
+        ],
+    ];
+    let bandwidth = Bandwidth {
+        omega_n: p[8],
+        zeta: p[9],
+        omega_n_stderr: if bw_est { lm.stderr[8] } else { 0.0 },
+        zeta_stderr: if bw_est { lm.stderr[9] } else { 0.0 },
+        estimated: bw_est,
+        note: bw_note,
+    };
+    let uncertainty = uncertainty_database(&records, &p, &factors);
+    let mut ident = Identification {
+        campaign_name: campaign.name.clone(),
+        records,
+        a,
+        b,
+        bandwidth,
+        saturation,
+        uncertainty,
+        reduced_chi2: if lm.dof > 0 {
+            lm.chi2 / lm.dof as f64
+        } else {
+            f64::NAN
+        },
+        warnings,
+        model: ModelSpec {
+            name: None,
+            description: None,
+            effects: Vec::new(),
+            provenance: toml::Table::new(),
+            stderr: toml::Table::new(),
+        },
+    };
+    ident.model = build_model(&ident, campaign, opts)?;
+    Ok(ident)
+}
+
+fn check_frequency_span(records: &[RecordFit]) -> Result<(), IdentifyError> {
+    let mut problems = Vec::new();
+    for axis in Axis::BOTH {
+        let recs: Vec<&RecordFit> = records
+            .iter()
+            .filter(|r| r.excluded.is_none() && r.excited == axis)
+            .collect();
+        if recs.is_empty() {
+            problems.push(format!(
+                "no usable record excites {axis}_cr, so G1{0} and G2{0} cannot be identified",
+                axis.index() + 1
+            ));
+            continue;
+        }
+        let mut w: Vec<f64> = recs.iter().map(|r| r.omega).collect();
+        w.sort_by(|a, b| a.total_cmp(b));
+        w.dedup_by(|a, b| (*a / *b - 1.0).abs() < 1e-6);
+        let span = w[w.len() - 1] / w[0];
+        if w.len() < 3 || span < 2.0 {
+            let ix: Vec<usize> = recs.iter().map(|r| r.index).collect();
+            problems.push(format!(
+                "the usable records exciting {axis}_cr ({}) span {} distinct frequencies over a \
+                 factor {span:.2} ({:.3}..{:.3} rad/s): a and b of G1{n} and G2{n} cannot be \
+                 separated; at least 3 frequencies spanning a factor 2 are needed, ideally up to \
+                 where b w^2 dominates a",
+                name_records(&ix),
+                w.len(),
+                w[0],
+                w[w.len() - 1],
+                n = axis.index() + 1
+            ));
+        }
+    }
+    if problems.is_empty() {
+        Ok(())
+    } else {
+        Err(IdentifyError::FrequencySpan(problems.join("; ")))
+    }
+}
+
+/// The fixed complex factor of the start model's extra linear effects, per record and output.
+fn start_factors(start: Option<&ModelSpec>, records: &[RecordFit]) -> Vec<[Complex64; 2]> {
+    let one = [Complex64::new(1.0, 0.0); 2];
+    let Some(spec) = start else {
+        return vec![one; records.len()];
+    };
+    let Ok(mut plant) = Plant::new(spec, zmp_models::DEFAULT_STEP) else {
+        return vec![one; records.len()];
+    };
+    let lp = |a: Axis| *plant.tracking_lowpass(a);
+    let pend = *plant.pendulum();
+    let lps = [lp(Axis::X), lp(Axis::Y)];
+    records
+        .iter()
+        .map(|r| {
+            if r.excluded.is_some() {
+                return one;
+            }
+            plant.set_operating_point([0.0, 0.0]);
+            let j = r.excited.index();
+            plant.set_operating_point(r.operating_point);
+            let full = plant.frequency_response(r.omega);
+            let mut f = one;
+            for i in 0..2 {
+                let ch = Channel {
+                    output: Axis::from_index(i).expect("0 or 1"),
+                    input: r.excited,
+                };
+                let core = pend.response(ch, r.omega) * lps[j].tf().freq(r.omega);
+                if core.norm() > 0.0 {
+                    f[i] = full[i][j] / core;
+                }
+            }
+            f
+        })
+        .collect()
+}
+
+fn points(records: &[RecordFit], factors: &[[Complex64; 2]], skip: &[usize]) -> Vec<Point> {
+    let mut pts = Vec::new();
+    for r in records {
+        if r.excluded.is_some() || skip.contains(&r.index) {
+            continue;
+        }
+        for i in 0..2 {
+            if r.sigma[i] > 0.0 && r.g[i].re.is_finite() && r.g[i].im.is_finite() {
+                pts.push(Point {
+                    i,
+                    j: r.excited.index(),
+                    omega: r.omega_fit,
+                    g: r.g[i],
+                    sigma: r.sigma[i],
+                    factor: factors[r.index][i],
+                });
+            }
+        }
+    }
+    pts
+}
+
+/// Steps 4-5: returns the fit, whether the bandwidth was estimated, and a note.
+fn pendulum_fit(
+    pts: &[Point],
+    (wn0, z0): (f64, f64),
+    fix: bool,
+) -> Result<(fit::LmResult, bool, String), IdentifyError> {
+    if pts.is_empty() {
+        return Err(IdentifyError::FitFailed("no data points".into()));
+    }
+    let all: Vec<usize> = (0..NP).collect();
+    let core: Vec<usize> = (0..8).collect();
+    let start = fit::linear_start(pts, wn0, z0);
+    let fixed = fit::levenberg_marquardt(start, pts, &core);
+    if fix {
+        return Ok((
+            fixed,
+            false,
+            format!("tracking low-pass given (omega_n = {wn0} rad/s, zeta = {z0}), not estimated"),
+        ));
+    }
+    let free = fit::levenberg_marquardt(fixed.params, pts, &all);
+    let p = free.params;
+    let ok = free.params.iter().all(|v| v.is_finite())
+        && p[8] > 0.5
+        && p[8] < 1e4
+        && p[9] > 0.01
+        && p[9] < 100.0
+        && free.stderr[8] / p[8] < 0.25
+        && free.stderr[9] / p[9] < 0.25;
+    if ok {
+        let note = format!(
+            "tracking low-pass estimated from the data: omega_n = {:.2} +- {:.2} rad/s, zeta = \
+             {:.3} +- {:.3}",
+            p[8], free.stderr[8], p[9], free.stderr[9]
+        );
+        Ok((free, true, note))
+    } else {
+        Ok((
+            fixed,
+            false,
+            format!(
+                "the data do not determine the tracking low-pass (estimate omega_n = {:.3e} +- \
+                 {:.1e} rad/s, zeta = {:.3e} +- {:.1e}); the given omega_n = {wn0} rad/s, zeta = \
+                 {z0} are used (set them with --bandwidth WN,ZETA), and the errors of a, b do \
+                 not include their uncertainty",
+                p[8], free.stderr[8], p[9], free.stderr[9]
+            ),
+        ))
+    }
+}
+
+/// Step 6: the acceleration limit that makes the servo's describing function match the
+/// saturated records; golden-section search on `log(limit)`.
+fn estimate_limit(
+    records: &[RecordFit],
+    sat: &[usize],
+    p: &[f64; NP],
+    factors: &[[Complex64; 2]],
+) -> (Option<f64>, Option<f64>) {
+    let info = zmp_models::lookup("acceleration_saturation").expect("registered effect");
+    let h = zmp_models::DEFAULT_STEP;
+    let ctx = BuildContext {
+        h,
+        binding: Binding::Axis(Axis::X),
+        servo: Some((p[8], p[9])),
+    };
+    let demand: Vec<f64> = sat
+        .iter()
+        .map(|&c| {
+            let r = &records[c];
+            r.amplitude * r.omega * r.omega * fit::lowpass(r.omega, p[8], p[9]).norm()
+        })
+        .collect();
+    let top = demand.iter().cloned().fold(0.0, f64::max);
+    if top.is_nan() || top <= 0.0 {
+        return (None, None);
+    }
+    // Distinct (omega, amplitude) pairs share a describing function.
+    let mut keys: Vec<(f64, f64)> = Vec::new();
+    for &c in sat {
+        let k = (records[c].omega, records[c].amplitude);
+        if !keys.contains(&k) {
+            keys.push(k);
+        }
+    }
+    let chi2 = |limit: f64| -> f64 {
+        let e = (info.build)(&ctx, &[limit]);
+        let nf: Vec<Complex64> = keys
+            .iter()
+            .map(|&(w, a)| e.frequency_response(w, a))
+            .collect();
+        let mut s = 0.0;
+        for &c in sat {
+            let r = &records[c];
+            let k = keys
+                .iter()
+                .position(|&k| k == (r.omega, r.amplitude))
+                .expect("key");
+            for i in 0..2 {
+                let gm = fit::model(
+                    p,
+                    &Point {
+                        i,
+                        j: r.excited.index(),
+                        omega: r.omega_fit,
+                        g: r.g[i],
+                        sigma: r.sigma[i],
+                        factor: factors[c][i],
+                    },
+                ) * nf[k];
+                s += (r.g[i] - gm).norm_sqr() / r.sigma[i].powi(2);
+            }
+        }
+        s
+    };
+    let (mut lo, mut hi) = ((0.05 * top).ln(), (1.2 * top).ln());
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let mut x1 = hi - g * (hi - lo);
+    let mut x2 = lo + g * (hi - lo);
+    let mut f1 = chi2(x1.exp());
+    let mut f2 = chi2(x2.exp());
+    for _ in 0..40 {
+        if f1 < f2 {
+            hi = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = hi - g * (hi - lo);
+            f1 = chi2(x1.exp());
+        } else {
+            lo = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = lo + g * (hi - lo);
+            f2 = chi2(x2.exp());
+        }
+        if hi - lo < 2e-4 {
+            break;
+        }
+    }
+    let l = (0.5 * (lo + hi)).exp();
+    // Standard error from the curvature of chi-square, scaled by the reduced chi-square.
+    let d = 0.01 * l;
+    let (cm, c0, cp) = (chi2(l - d), chi2(l), chi2(l + d));
+    let curv = (cm - 2.0 * c0 + cp) / (d * d);
+    let dof = (2 * sat.len()).saturating_sub(1).max(1) as f64;
+    let se = if curv > 0.0 {
+        Some((2.0 / curv * (c0 / dof).max(1.0)).sqrt())
+    } else {
+        None
+    };
+    (Some(l), se)
+}
+
+/// Step 7: the uncertainty database and the weights.
+fn uncertainty_database(
+    records: &[RecordFit],
+    p: &[f64; NP],
+    factors: &[[Complex64; 2]],
+) -> Vec<ChannelUncertainty> {
+    let mut out = Vec::new();
+    for ch in Channel::ALL {
+        let (i, j) = (ch.output.index(), ch.input.index());
+        // Records measured or saturated (nonlinear effects belong to the uncertainty).
+        let recs: Vec<&RecordFit> = records
+            .iter()
+            .filter(|r| {
+                r.excited == ch.input
+                    && (r.excluded.is_none() || r.excluded.as_deref() == Some(reason::SATURATED))
+            })
+            .collect();
+        let mut groups: Vec<(f64, f64, f64, usize)> = Vec::new();
+        for r in recs {
+            let gm = fit::model(
+                p,
+                &Point {
+                    i,
+                    j,
+                    omega: r.omega_fit,
+                    g: r.g[i],
+                    sigma: r.sigma[i],
+                    factor: factors[r.index][i],
+                },
+            );
+            let e = (r.g[i] - gm).norm();
+            let m = e / gm.norm().max(1e-300);
+            match groups
+                .iter_mut()
+                .find(|g| (g.0 / r.omega - 1.0).abs() < 1e-6)
+            {
+                Some(g) => {
+                    g.1 = g.1.max(e);
+                    g.2 = g.2.max(m);
+                    g.3 += 1;
+                }
+                None => groups.push((r.omega, e, m, 1)),
+            }
+        }
+        groups.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let points: Vec<UncertaintyPoint> = groups
+            .iter()
+            .map(|g| UncertaintyPoint {
+                omega: g.0,
+                additive: g.1,
+                multiplicative: g.2,
+                records: g.3,
+            })
+            .collect();
+        let w: Vec<f64> = points.iter().map(|q| q.omega).collect();
+        let l: Vec<f64> = points.iter().map(|q| q.multiplicative).collect();
+        let weight = fit::fit_weight(&w, &l).unwrap_or((1e-3, 1.0, 1.0));
+        out.push(ChannelUncertainty {
+            channel: ch.name().to_string(),
+            points,
+            weight,
+        });
+    }
+    out
+}
+
+/// `YYYY-MM-DDTHH:MM:SSZ` from the system clock.
+pub fn utc_now() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs() as i64)
+        .unwrap_or(0);
+    let days = secs.div_euclid(86_400);
+    let rem = secs.rem_euclid(86_400);
+    // Civil date from days since 1970-01-01 (H. Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem / 60 % 60,
+        rem % 60
+    )
+}
+
+fn fl(v: f64) -> toml::Value {
+    toml::Value::Float(v)
+}
+
+/// Step 8: the model file.
+fn build_model(
+    ident: &Identification,
+    campaign: &Campaign,
+    opts: &IdentifyOptions,
+) -> Result<ModelSpec, IdentifyError> {
+    let mut spec = match &opts.start_model {
+        Some(m) => m.clone(),
+        None => ModelSpec::parse(
+            include_str!("../../models/params/silo2-paper.toml"),
+            "silo2-paper.toml",
+        )
+        .map_err(|e| IdentifyError::FitFailed(e.to_string()))?,
+    };
+    let name = campaign.name.clone().unwrap_or_else(|| "campaign".into());
+    spec.name = Some(format!("identified from {name}"));
+    spec.description = Some(format!(
+        "Identified by zmp-validation {} (first seed, section 5) from {} of {} records; \
+         uncertainty delta = 0 (nominal).",
+        env!("CARGO_PKG_VERSION"),
+        ident.used().count(),
+        ident.records.len()
+    ));
+    let fail = |what: &str| IdentifyError::FitFailed(format!("cannot set {what} in the model"));
+    let mut se_pend = toml::Table::new();
+    for (m, letter) in [(&ident.a, 'a'), (&ident.b, 'b')] {
+        for (i, row) in m.iter().enumerate() {
+            for (j, prm) in row.iter().enumerate() {
+                let key = format!("{letter}{}{}", i + 1, j + 1);
+                if !spec.set_value("pendulum", Binding::Global, &key, prm.value) {
+                    return Err(fail(&key));
+                }
+                se_pend.insert(key, fl(prm.stderr));
+            }
+        }
+    }
+    let lp = zmp_models::lookup("tracking_lowpass").expect("registered");
+    for axis in Axis::BOTH {
+        spec.insert(EffectInstance {
+            info: lp,
+            binding: Binding::Axis(axis),
+            values: vec![ident.bandwidth.omega_n, ident.bandwidth.zeta],
+        });
+    }
+    let unc = zmp_models::lookup("uncertainty").expect("registered");
+    let mut se_unc = toml::Table::new();
+    for (ch, cu) in Channel::ALL.iter().zip(&ident.uncertainty) {
+        let (k, z, p) = cu.weight;
+        spec.insert(EffectInstance {
+            info: unc,
+            binding: Binding::Channel(*ch),
+            values: vec![k, z, p, 0.0, 0.0],
+        });
+        let _ = &mut se_unc;
+    }
+    let mut stderr = toml::Table::new();
+    stderr.insert("pendulum".into(), toml::Value::Table(se_pend));
+    if ident.bandwidth.estimated {
+        let mut t = toml::Table::new();
+        t.insert("omega_n".into(), fl(ident.bandwidth.omega_n_stderr));
+        t.insert("zeta".into(), fl(ident.bandwidth.zeta_stderr));
+        stderr.insert("tracking_lowpass".into(), toml::Value::Table(t));
+    }
+    let wants_limit = opts.include_saturation
+        || opts
+            .start_model
+            .as_ref()
+            .is_some_and(|m| m.has("acceleration_saturation"));
+    if let (Some(l), true) = (ident.saturation.limit, wants_limit) {
+        let sat = zmp_models::lookup("acceleration_saturation").expect("registered");
+        for axis in Axis::BOTH {
+            spec.insert(EffectInstance {
+                info: sat,
+                binding: Binding::Axis(axis),
+                values: vec![l.clamp(1e-3, 1e3)],
+            });
+        }
+        if let Some(se) = ident.saturation.limit_stderr {
+            let mut t = toml::Table::new();
+            t.insert("limit".into(), fl(se));
+            stderr.insert("acceleration_saturation".into(), toml::Value::Table(t));
+        }
+    }
+    spec.stderr = stderr;
+    let mut prov = toml::Table::new();
+    prov.insert("campaign".into(), toml::Value::String(name));
+    if let Some(p) = &opts.campaign_path {
+        prov.insert(
+            "campaign_path".into(),
+            toml::Value::String(p.display().to_string()),
+        );
+    }
+    let used = ident.used().count();
+    prov.insert(
+        "records".into(),
+        toml::Value::Integer(ident.records.len() as i64),
+    );
+    prov.insert("records_used".into(), toml::Value::Integer(used as i64));
+    prov.insert(
+        "records_excluded".into(),
+        toml::Value::Integer((ident.records.len() - used) as i64),
+    );
+    prov.insert("date".into(), toml::Value::String(utc_now()));
+    prov.insert(
+        "tool".into(),
+        toml::Value::String(format!(
+            "zmp-validation {} identify",
+            env!("CARGO_PKG_VERSION")
+        )),
+    );
+    prov.insert(
+        "harmonics".into(),
+        toml::Value::Integer(opts.harmonics as i64),
+    );
+    prov.insert("reduced_chi2".into(), fl(ident.reduced_chi2));
+    prov.insert(
+        "bandwidth".into(),
+        toml::Value::String(if ident.bandwidth.estimated {
+            "estimated".into()
+        } else {
+            "given".into()
+        }),
+    );
+    spec.provenance = prov;
+    spec.validate("identified model")
+        .map_err(|e| IdentifyError::FitFailed(format!("the identified model is invalid: {e}")))?;
+    Ok(spec)
+}
+
+/// Writes the model file atomically; an existing file needs `force`.
+pub fn write_model(
+    ident: &Identification,
+    path: &std::path::Path,
+    force: bool,
+) -> anyhow::Result<()> {
+    crate::io::atomic_write(path, ident.model.to_toml().as_bytes(), force)
+}
+
+/// A JSON summary: parameters with standard errors, excluded records, warnings.
+pub fn summary_json(ident: &Identification) -> serde_json::Value {
+    let excluded: Vec<serde_json::Value> = ident
+        .records
+        .iter()
+        .filter_map(|r| {
+            r.excluded
+                .as_ref()
+                .map(|w| serde_json::json!({"record": r.index, "reason": w}))
+        })
+        .collect();
+    serde_json::json!({
+        "campaign": ident.campaign_name,
+        "records": ident.records.len(),
+        "records_used": ident.used().count(),
+        "parameters": ident.parameters(),
+        "bandwidth": ident.bandwidth,
+        "saturation": ident.saturation,
+        "uncertainty": ident.uncertainty,
+        "reduced_chi2": ident.reduced_chi2,
+        "excluded": excluded,
+        "warnings": ident.warnings,
+    })
+}

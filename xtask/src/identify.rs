@@ -1,0 +1,144 @@
+//! `cargo xtask identify`: a campaign folder in, the identified model file and a report out.
+
+use crate::simulate::load_model;
+use crate::simulate::progress_bar;
+use anyhow::{bail, Context, Result};
+use std::path::{Path, PathBuf};
+use zmp_validation::campaign::read_campaign;
+use zmp_validation::identify::{
+    identify_with_progress, report::write_report, summary_json, write_model, Identification,
+    IdentifyOptions,
+};
+
+/// The default model path: `<campaign>/../<campaign-folder-name>-identified.toml`.
+pub fn default_out(campaign: &Path) -> PathBuf {
+    let name = campaign
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "campaign".into());
+    let parent = campaign.parent().unwrap_or(Path::new("."));
+    parent.join(format!("{name}-identified.toml"))
+}
+
+/// Parses `WN,ZETA`.
+pub fn parse_bandwidth(s: &str) -> Result<(f64, f64)> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 2 {
+        bail!("--bandwidth expects WN,ZETA (e.g. 30,1), got {s:?}");
+    }
+    let wn: f64 = parts[0]
+        .parse()
+        .with_context(|| format!("omega_n {:?}", parts[0]))?;
+    let z: f64 = parts[1]
+        .parse()
+        .with_context(|| format!("zeta {:?}", parts[1]))?;
+    if !(wn > 0.0 && z > 0.0 && wn.is_finite() && z.is_finite()) {
+        bail!("--bandwidth: omega_n and zeta must be positive, got {wn}, {z}");
+    }
+    Ok((wn, z))
+}
+
+/// What `cargo xtask identify` was asked.
+pub struct IdentifyArgs<'a> {
+    pub campaign: &'a Path,
+    pub out: Option<&'a Path>,
+    pub report: Option<&'a Path>,
+    pub model: Option<&'a Path>,
+    pub bandwidth: Option<(f64, f64)>,
+    pub include_saturation: bool,
+    pub force: bool,
+    pub json: bool,
+}
+
+/// Runs the identification; writes the model (and the report if asked).
+pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
+    let (campaign, out, report, force, json) = (a.campaign, a.out, a.report, a.force, a.json);
+    let start_model = a.model.map(load_model).transpose()?;
+    let quiet = json;
+    let spinner = progress_bar(1, "reading", quiet);
+    let camp = read_campaign(campaign)
+        .with_context(|| format!("reading campaign {}", campaign.display()))?;
+    spinner.finish_and_clear();
+    let opts = IdentifyOptions {
+        given_bandwidth: a.bandwidth,
+        campaign_path: Some(campaign.to_path_buf()),
+        start_model,
+        include_saturation: a.include_saturation,
+        ..IdentifyOptions::default()
+    };
+    let pb = progress_bar(camp.records.len() as u64, "fitting", quiet);
+    let ident = identify_with_progress(&camp, &opts, &|d| pb.set_position(d as u64))?;
+    pb.finish_and_clear();
+    let out = out
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| default_out(campaign));
+    write_model(&ident, &out, force)?;
+    let files = match report {
+        Some(dir) => Some(write_report(&ident, dir, force)?),
+        None => None,
+    };
+    if json {
+        let mut s = summary_json(&ident);
+        s["model"] = serde_json::json!(out);
+        if let Some(f) = &files {
+            s["report"] = serde_json::json!(f.html);
+        }
+        println!("{}", serde_json::to_string_pretty(&s)?);
+    } else {
+        println!(
+            "{} records, {} used; reduced chi-square {:.2}",
+            ident.records.len(),
+            ident.used().count(),
+            ident.reduced_chi2
+        );
+        for p in ident.parameters() {
+            println!(
+                "  {:<32} {:>12.6} +- {:<10.3e}{}",
+                p.name,
+                p.value,
+                p.stderr,
+                if p.estimated { "" } else { " (given)" }
+            );
+        }
+        for w in &ident.warnings {
+            println!("warning: {w}");
+        }
+        if let Some(l) = ident.saturation.limit {
+            if !ident.model.has("acceleration_saturation") {
+                println!(
+                    "acceleration saturation detected (limit about {l:.3} m/s2); the model file stays linear: \
+                     `cargo xtask diagnose` scores it, or pass --include-saturation"
+                );
+            }
+        }
+        println!("model -> {}", out.display());
+        if let Some(f) = &files {
+            println!("report -> {}", f.html.display());
+        }
+    }
+    Ok(ident)
+}
+
+/// The demo's identification step: identifies the in-memory virtual campaign, writes
+/// `out/identified.toml` and the report into `out/identify/`. Returns the identification and
+/// the report's files.
+pub fn demo_step(
+    camp: &zmp_validation::campaign::Campaign,
+    campaign_dir: &Path,
+    out: &Path,
+    quiet: bool,
+) -> Result<(
+    Identification,
+    zmp_validation::identify::report::ReportFiles,
+)> {
+    let opts = IdentifyOptions {
+        campaign_path: Some(campaign_dir.to_path_buf()),
+        ..IdentifyOptions::default()
+    };
+    let pb = progress_bar(camp.records.len() as u64, "fitting", quiet);
+    let ident = identify_with_progress(camp, &opts, &|d| pb.set_position(d as u64))?;
+    pb.finish_and_clear();
+    write_model(&ident, &out.join("identified.toml"), true)?;
+    let files = write_report(&ident, &out.join("identify"), true)?;
+    Ok((ident, files))
+}
