@@ -203,34 +203,50 @@ pub(crate) fn fft_estimate<const S: usize>(
     omega: f64,
     dt: f64,
 ) -> ([Complex64; S], f64) {
+    thread_local! {
+        // Plans are cached by size; sizes are powers of two, so a handful per thread.
+        static PLANNER: std::cell::RefCell<FftPlanner<f64>> = std::cell::RefCell::new(FftPlanner::new());
+    }
     let n = signals[0].len();
-    let mut planner = FftPlanner::<f64>::new();
-    let fft = planner.plan_fft_forward(n);
     let win: Vec<f64> = (0..n)
         .map(|k| 0.5 - 0.5 * (2.0 * PI * k as f64 / n as f64).cos())
         .collect();
     let gain: f64 = win.iter().sum::<f64>() / 2.0;
-    let bin_w = 2.0 * PI / (n as f64 * dt);
-    let k0 = ((omega / bin_w).round() as usize).clamp(1, n / 2 - 1);
+    // Frequency: the Hann-windowed input, zero-padded to a power of two, its peak bin near
+    // omega refined by a parabola through the log magnitudes.
+    let n2 = n.next_power_of_two().max(16);
+    let fft = PLANNER.with(|p| p.borrow_mut().plan_fft_forward(n2));
+    let mut buf = vec![Complex64::new(0.0, 0.0); n2];
+    for (b, (y, w)) in buf.iter_mut().zip(signals[0].iter().zip(&win)) {
+        *b = Complex64::new(y * w, 0.0);
+    }
+    fft.process(&mut buf);
+    let bin_w = 2.0 * PI / (n2 as f64 * dt);
+    let k0 = ((omega / bin_w).round() as usize).clamp(1, n2 / 2 - 1);
+    let m = |k: usize| buf[k].norm().max(1e-300).ln();
+    let (a, b, c) = (m(k0 - 1), m(k0), m(k0 + 1));
+    let d = a - 2.0 * b + c;
+    let off = if d < 0.0 { 0.5 * (a - c) / d } else { 0.0 };
+    let w_est = (k0 as f64 + off.clamp(-0.5, 0.5)) * bin_w;
+    // Phasors at the commanded frequency: the windowed DTFT there, X = sum y w e^{-j omega t}.
+    // For y = |P| sin(omega t + phi), X = |P| e^{j(phi - pi/2)} gain, so P = j X / gain.
     let mut out = [Complex64::new(0.0, 0.0); S];
-    let mut w_est = omega;
+    let (ds, dc) = (omega * dt).sin_cos();
     for (j, sig) in signals.iter().enumerate() {
-        let mut buf: Vec<Complex64> = sig
-            .iter()
-            .zip(&win)
-            .map(|(y, w)| Complex64::new(y * w, 0.0))
-            .collect();
-        fft.process(&mut buf);
-        // X_k = sum y e^{-j w t}; for y = |P| sin(w t + phi): X = |P| e^{j(phi - pi/2)} gain.
-        // So P = j X / gain.
-        out[j] = Complex64::new(0.0, 1.0) * buf[k0] / gain;
-        if j == 0 {
-            let m = |k: usize| buf[k].norm().max(1e-300).ln();
-            let (a, b, c) = (m(k0 - 1), m(k0), m(k0 + 1));
-            let d = a - 2.0 * b + c;
-            let off = if d < 0.0 { 0.5 * (a - c) / d } else { 0.0 };
-            w_est = (k0 as f64 + off.clamp(-0.5, 0.5)) * bin_w;
+        let (mut sn, mut cs) = (0.0f64, 1.0f64);
+        let (mut re, mut im) = (0.0, 0.0);
+        for (k, (y, w)) in sig.iter().zip(&win).enumerate() {
+            if k % 1024 == 0 {
+                (sn, cs) = (omega * k as f64 * dt).sin_cos();
+            }
+            let yw = y * w;
+            re += yw * cs;
+            im -= yw * sn;
+            let ns = sn * dc + cs * ds;
+            cs = cs * dc - sn * ds;
+            sn = ns;
         }
+        out[j] = Complex64::new(0.0, 1.0) * Complex64::new(re, im) / gain;
     }
     (out, w_est)
 }
@@ -256,12 +272,33 @@ pub(crate) fn harmonic_fit<const S: usize>(
     dt: f64,
     k_max: usize,
 ) -> Option<HarmonicFit<S>> {
-    let n = signals[0].len();
-    let m = 1 + 2 * k_max;
-    let mut ata = vec![0.0; m * m];
-    let mut aty = vec![[0.0; S]; m];
+    // Dispatch on the harmonic count so the accumulation loops unroll.
+    match k_max {
+        1 => harmonic_fit_k::<S, 1>(signals, omega, dt),
+        2 => harmonic_fit_k::<S, 2>(signals, omega, dt),
+        3 => harmonic_fit_k::<S, 3>(signals, omega, dt),
+        4 => harmonic_fit_k::<S, 4>(signals, omega, dt),
+        5 => harmonic_fit_k::<S, 5>(signals, omega, dt),
+        6 => harmonic_fit_k::<S, 6>(signals, omega, dt),
+        _ => harmonic_fit_k::<S, 7>(signals, omega, dt),
+    }
+}
+
+/// Largest regressor count: DC and seven harmonics.
+const MAX_COLS: usize = 15;
+
+fn harmonic_fit_k<const S: usize, const K: usize>(
+    signals: [&[f64]; S],
+    omega: f64,
+    dt: f64,
+) -> Option<HarmonicFit<S>> {
+    let k_max = K;
+    let n = signals.iter().map(|s| s.len()).min().unwrap_or(0);
+    let m = 1 + 2 * K;
+    let mut ata_f = [[0.0f64; MAX_COLS]; MAX_COLS];
+    let mut aty_f = [[0.0f64; S]; MAX_COLS];
     let mut yy = [0.0; S];
-    let mut phi = vec![0.0; m];
+    let mut phi = [0.0f64; MAX_COLS];
     let (ds, dc) = (omega * dt).sin_cos();
     let (mut s1, mut c1) = (0.0f64, 1.0f64);
     const RESYNC: usize = 1024;
@@ -273,36 +310,38 @@ pub(crate) fn harmonic_fit<const S: usize>(
         }
         phi[0] = 1.0;
         let (mut sk, mut ck) = (s1, c1);
-        for h in 0..k_max {
+        for h in 0..K {
             phi[1 + 2 * h] = sk;
             phi[2 + 2 * h] = ck;
             let ns = sk * c1 + ck * s1;
             ck = ck * c1 - sk * s1;
             sk = ns;
         }
-        for a in 0..m {
+        for a in 0..1 + 2 * K {
             let pa = phi[a];
-            let row = &mut ata[a * m..a * m + m];
-            for b in a..m {
-                row[b] += pa * phi[b];
+            for b in a..1 + 2 * K {
+                ata_f[a][b] += pa * phi[b];
             }
         }
         for j in 0..S {
             let y = signals[j][k];
             yy[j] += y * y;
-            for a in 0..m {
-                aty[a][j] += phi[a] * y;
+            for a in 0..1 + 2 * K {
+                aty_f[a][j] += phi[a] * y;
             }
         }
         let ns = s1 * dc + c1 * ds;
         c1 = c1 * dc - s1 * ds;
         s1 = ns;
     }
+    let mut ata = vec![0.0; m * m];
     for a in 0..m {
-        for b in 0..a {
-            ata[a * m + b] = ata[b * m + a];
+        for b in a..m {
+            ata[a * m + b] = ata_f[a][b];
+            ata[b * m + a] = ata_f[a][b];
         }
     }
+    let aty: Vec<[f64; S]> = aty_f[..m].to_vec();
     let chol = nalgebra::DMatrix::from_row_slice(m, m, &ata).cholesky()?;
     let mut harmonics: [Vec<Complex64>; S] = std::array::from_fn(|_| Vec::new());
     let mut noise_var = [0.0; S];
