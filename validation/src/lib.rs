@@ -1,4 +1,5 @@
 pub mod campaign;
+pub mod diagnose;
 pub mod identify;
 pub mod io;
 pub mod plot;

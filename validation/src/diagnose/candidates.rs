@@ -1,0 +1,435 @@
+//! The catalogue of candidate effects the diagnosis fits. Each candidate says how to add its
+//! effect to a model and which parameters the fit may move; the core parameters are refitted
+//! with it.
+
+use super::lm::Bounded;
+use super::observe::Observation;
+use zmp_models::{lookup, Axis, Binding, Channel, EffectInstance, ModelSpec};
+
+/// One scalar the fit moves; it sets `param` of `kind` at every binding listed.
+#[derive(Debug, Clone)]
+pub struct Free {
+    pub kind: &'static str,
+    pub bindings: Vec<Binding>,
+    pub param: &'static str,
+    pub bounds: Bounded,
+}
+
+impl Free {
+    fn new(
+        kind: &'static str,
+        bindings: Vec<Binding>,
+        param: &'static str,
+        value: f64,
+        min: f64,
+        max: f64,
+    ) -> Free {
+        Free {
+            kind,
+            bindings,
+            param,
+            bounds: Bounded {
+                value: value.clamp(min, max),
+                min,
+                max,
+            },
+        }
+    }
+
+    /// Dotted name for reports: `time_delay.delay`, `sensor_drift.x.rate`.
+    pub fn name(&self) -> String {
+        if self.bindings.len() == 1 {
+            if let Some(k) = self.bindings[0].key() {
+                return format!("{}.{}.{}", self.kind, k, self.param);
+            }
+        }
+        format!("{}.{}", self.kind, self.param)
+    }
+}
+
+/// Sets every free parameter of `frees` to `theta` in `spec`.
+pub fn apply(spec: &mut ModelSpec, frees: &[Free], theta: &[f64]) {
+    for (f, v) in frees.iter().zip(theta) {
+        for b in &f.bindings {
+            spec.set_value(f.kind, *b, f.param, *v);
+        }
+    }
+}
+
+/// Data ranges the candidates scale their starting values and bounds from.
+#[derive(Debug, Clone, Copy)]
+pub struct DataRange {
+    pub omega_min: f64,
+    pub omega_max: f64,
+    pub amplitude_min: f64,
+    pub amplitude_max: f64,
+    pub op_span: [f64; 2],
+    pub axes_excited: [bool; 2],
+}
+
+impl DataRange {
+    pub fn of(obs: &[&Observation]) -> DataRange {
+        let mut r = DataRange {
+            omega_min: f64::INFINITY,
+            omega_max: 0.0,
+            amplitude_min: f64::INFINITY,
+            amplitude_max: 0.0,
+            op_span: [0.0; 2],
+            axes_excited: [false; 2],
+        };
+        let mut op_lo = [f64::INFINITY; 2];
+        let mut op_hi = [f64::NEG_INFINITY; 2];
+        for o in obs {
+            r.omega_min = r.omega_min.min(o.omega);
+            r.omega_max = r.omega_max.max(o.omega);
+            r.amplitude_min = r.amplitude_min.min(o.amplitude());
+            r.amplitude_max = r.amplitude_max.max(o.amplitude());
+            r.axes_excited[o.excited.index()] = true;
+            for k in 0..2 {
+                op_lo[k] = op_lo[k].min(o.operating_point[k]);
+                op_hi[k] = op_hi[k].max(o.operating_point[k]);
+            }
+        }
+        r.op_span = [op_hi[0] - op_lo[0], op_hi[1] - op_lo[1]];
+        r
+    }
+}
+
+const AXES: [Binding; 2] = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
+
+/// The core parameters refitted with every candidate: the diagonal pendulum, the off-diagonal
+/// terms the model already has, and the tracking low-pass (shared by the axes).
+pub fn core_frees(spec: &ModelSpec) -> Vec<Free> {
+    let mut out = Vec::new();
+    for ch in Channel::ALL {
+        let diag = ch.output == ch.input;
+        for (p, lim) in [("a", 10.0), ("b", 10.0)] {
+            let name: &'static str = match (p, ch.suffix()) {
+                ("a", "11") => "a11",
+                ("a", "12") => "a12",
+                ("a", "21") => "a21",
+                ("a", "22") => "a22",
+                ("b", "11") => "b11",
+                ("b", "12") => "b12",
+                ("b", "21") => "b21",
+                _ => "b22",
+            };
+            let v = spec.value("pendulum", Binding::Global, name).unwrap_or(0.0);
+            if diag || v != 0.0 {
+                out.push(Free::new(
+                    "pendulum",
+                    vec![Binding::Global],
+                    name,
+                    v,
+                    -lim,
+                    lim,
+                ));
+            }
+        }
+    }
+    let wn = spec
+        .value("tracking_lowpass", AXES[0], "omega_n")
+        .unwrap_or(30.0);
+    let zeta = spec
+        .value("tracking_lowpass", AXES[0], "zeta")
+        .unwrap_or(1.0);
+    out.push(Free::new(
+        "tracking_lowpass",
+        AXES.to_vec(),
+        "omega_n",
+        wn,
+        0.5,
+        1e4,
+    ));
+    out.push(Free::new(
+        "tracking_lowpass",
+        AXES.to_vec(),
+        "zeta",
+        zeta,
+        0.02,
+        10.0,
+    ));
+    out
+}
+
+/// A starting point of a fit: the model with the effect added, and what the fit may move.
+pub type Start = (ModelSpec, Vec<Free>);
+
+/// A candidate: the effect it adds, its starting points and free parameters.
+pub struct Candidate {
+    /// Name in the diagnosis catalogue (`zmp-diagnosis/1`).
+    pub effect: &'static str,
+    /// Adds the effect to `spec`; returns the starting points (each a model and its frees).
+    pub prepare: fn(&ModelSpec, &DataRange) -> Vec<Start>,
+}
+
+fn with(spec: &ModelSpec, kind: &str, bindings: &[Binding], values: &[f64]) -> ModelSpec {
+    let mut s = spec.clone();
+    let info = lookup(kind).expect("catalogued effect is registered");
+    for b in bindings {
+        s.insert(EffectInstance {
+            info,
+            binding: *b,
+            values: values.to_vec(),
+        });
+    }
+    s
+}
+
+/// Axis variants of an effect bound to input or output axes: both (one shared value), x, y.
+fn axis_variants(r: &DataRange) -> Vec<Vec<Binding>> {
+    let mut v = vec![AXES.to_vec()];
+    if r.axes_excited[0] && r.axes_excited[1] {
+        v.push(vec![AXES[0]]);
+        v.push(vec![AXES[1]]);
+    }
+    v
+}
+
+fn one_param(
+    spec: &ModelSpec,
+    r: &DataRange,
+    kind: &'static str,
+    param: &'static str,
+    starts: &[f64],
+    min: f64,
+    max: f64,
+) -> Vec<Start> {
+    let mut out = Vec::new();
+    for bindings in axis_variants(r) {
+        for &v in starts {
+            let s = with(spec, kind, &bindings, &[v]);
+            out.push((
+                s,
+                vec![Free::new(kind, bindings.clone(), param, v, min, max)],
+            ));
+        }
+    }
+    out
+}
+
+fn time_delay(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
+    let tmax = (1.5 / r.omega_max).min(0.45);
+    one_param(
+        spec,
+        r,
+        "time_delay",
+        "delay",
+        &[0.1 / r.omega_max, 0.5 / r.omega_max],
+        0.0,
+        tmax,
+    )
+}
+
+fn backlash(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
+    let a = r.amplitude_min;
+    one_param(
+        spec,
+        r,
+        "backlash",
+        "width",
+        &[0.1 * a, 0.4 * a, 1.0 * a],
+        0.0,
+        (4.0 * r.amplitude_max).min(0.1),
+    )
+}
+
+fn coulomb_friction(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
+    // Friction matters when it is comparable to the servo's acceleration demand.
+    let acc = r.amplitude_min * r.omega_min * r.omega_min.max(1.0);
+    one_param(
+        spec,
+        r,
+        "coulomb_friction",
+        "level",
+        &[0.3 * acc, 3.0 * acc],
+        0.0,
+        50.0,
+    )
+}
+
+fn acceleration_saturation(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
+    let acc = r.amplitude_max * r.omega_max * r.omega_max;
+    one_param(
+        spec,
+        r,
+        "acceleration_saturation",
+        "limit",
+        &[0.3 * acc, 0.7 * acc],
+        1e-3,
+        100.0,
+    )
+}
+
+fn sensor_lowpass(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
+    let mut out = Vec::new();
+    for bindings in axis_variants(r) {
+        for f in [1.0, 4.0] {
+            let wc = f * r.omega_max;
+            let s = with(spec, "sensor_lowpass", &bindings, &[wc]);
+            out.push((
+                s,
+                vec![Free::new(
+                    "sensor_lowpass",
+                    bindings.clone(),
+                    "cutoff",
+                    wc,
+                    0.2 * r.omega_min,
+                    100.0 * r.omega_max,
+                )],
+            ));
+        }
+    }
+    out
+}
+
+fn structural_mode(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
+    let mut out = Vec::new();
+    let n = 6;
+    for bindings in axis_variants(r) {
+        for k in 0..n {
+            let wm =
+                r.omega_min * (1.5 * r.omega_max / r.omega_min).powf((k as f64 + 0.5) / n as f64);
+            for zeta in [0.05, 0.3] {
+                let s = with(spec, "structural_mode", &bindings, &[wm, zeta]);
+                out.push((
+                    s,
+                    vec![
+                        Free::new(
+                            "structural_mode",
+                            bindings.clone(),
+                            "omega_n",
+                            wm,
+                            0.5 * r.omega_min,
+                            3.0 * r.omega_max,
+                        ),
+                        Free::new(
+                            "structural_mode",
+                            bindings.clone(),
+                            "zeta",
+                            zeta,
+                            0.005,
+                            1.0,
+                        ),
+                    ],
+                ));
+            }
+        }
+    }
+    out
+}
+
+fn sensor_drift(spec: &ModelSpec, _r: &DataRange) -> Vec<Start> {
+    let s = with(spec, "sensor_drift", &AXES, &[0.0, 0.0]);
+    let frees = AXES
+        .iter()
+        .map(|b| Free::new("sensor_drift", vec![*b], "rate", 0.0, -0.1, 0.1))
+        .collect();
+    vec![(s, frees)]
+}
+
+fn operating_point_dependence(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
+    let s = with(
+        spec,
+        "operating_point_dependence",
+        &[Binding::Global],
+        &[0.0; 4],
+    );
+    let mut frees = Vec::new();
+    for (k, (pa, pb)) in [("da_dx", "db_dx"), ("da_dy", "db_dy")]
+        .into_iter()
+        .enumerate()
+    {
+        if r.op_span[k] > 1e-9 {
+            let lim = (2.0 / r.op_span[k]).min(100.0);
+            frees.push(Free::new(
+                "operating_point_dependence",
+                vec![Binding::Global],
+                pa,
+                0.0,
+                -lim,
+                lim,
+            ));
+            frees.push(Free::new(
+                "operating_point_dependence",
+                vec![Binding::Global],
+                pb,
+                0.0,
+                -lim,
+                lim,
+            ));
+        }
+    }
+    if frees.is_empty() {
+        return Vec::new();
+    }
+    vec![(s, frees)]
+}
+
+fn cross_coupling(spec: &ModelSpec, _r: &DataRange) -> Vec<Start> {
+    let mut frees = Vec::new();
+    for name in ["a12", "a21", "b12", "b21"] {
+        if spec.value("pendulum", Binding::Global, name) == Some(0.0) {
+            frees.push(Free::new(
+                "pendulum",
+                vec![Binding::Global],
+                name,
+                0.0,
+                -10.0,
+                10.0,
+            ));
+        }
+    }
+    if frees.is_empty() {
+        return Vec::new();
+    }
+    vec![(spec.clone(), frees)]
+}
+
+/// Every catalogued candidate, in the order of the diagnosis spec.
+pub static CATALOGUE: &[Candidate] = &[
+    Candidate {
+        effect: "time_delay",
+        prepare: time_delay,
+    },
+    Candidate {
+        effect: "backlash",
+        prepare: backlash,
+    },
+    Candidate {
+        effect: "coulomb_friction",
+        prepare: coulomb_friction,
+    },
+    Candidate {
+        effect: "acceleration_saturation",
+        prepare: acceleration_saturation,
+    },
+    Candidate {
+        effect: "structural_mode",
+        prepare: structural_mode,
+    },
+    Candidate {
+        effect: "sensor_lowpass",
+        prepare: sensor_lowpass,
+    },
+    Candidate {
+        effect: "operating_point_dependence",
+        prepare: operating_point_dependence,
+    },
+    Candidate {
+        effect: "sensor_drift",
+        prepare: sensor_drift,
+    },
+    Candidate {
+        effect: "cross_coupling",
+        prepare: cross_coupling,
+    },
+];
+
+/// The model-file effect a catalogue name adds (`cross_coupling` frees pendulum terms).
+pub fn model_kind(effect: &str) -> &str {
+    match effect {
+        "cross_coupling" => "pendulum",
+        e => e,
+    }
+}

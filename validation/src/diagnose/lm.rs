@@ -1,0 +1,149 @@
+//! A small bounded Levenberg-Marquardt with a forward-difference Jacobian.
+
+use nalgebra::{DMatrix, DVector};
+
+/// A scalar the fit may change, with bounds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bounded {
+    pub value: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+/// Minimises `|r(theta)|^2`. `r` returns `None` for parameters it cannot evaluate (treated as
+/// a failed step). Returns the best parameters, the final cost and the Gauss-Newton covariance
+/// diagonal `(J^T J)^{-1}` (scaled by the reduced chi-square when it exceeds one).
+pub fn minimise(
+    theta0: &[Bounded],
+    max_iter: usize,
+    r: &mut dyn FnMut(&[f64]) -> Option<Vec<f64>>,
+) -> Option<(Vec<f64>, f64, Vec<f64>)> {
+    let n = theta0.len();
+    let clamp = |v: &mut [f64]| {
+        for (x, b) in v.iter_mut().zip(theta0) {
+            *x = x.clamp(b.min, b.max);
+        }
+    };
+    let mut theta: Vec<f64> = theta0.iter().map(|b| b.value).collect();
+    clamp(&mut theta);
+    let mut res = r(&theta)?;
+    let mut cost: f64 = res.iter().map(|x| x * x).sum();
+    let mut lambda = 1e-3;
+    let mut jtj = DMatrix::<f64>::zeros(n, n);
+    for _ in 0..max_iter {
+        let m = res.len();
+        let mut jac = DMatrix::<f64>::zeros(m, n);
+        for k in 0..n {
+            let span = theta0[k].max - theta0[k].min;
+            let mut hstep = 1e-6 * theta[k].abs().max(1e-3 * span.min(1.0)).max(1e-9);
+            if theta[k] + hstep > theta0[k].max {
+                hstep = -hstep;
+            }
+            let mut tp = theta.clone();
+            tp[k] += hstep;
+            let rp = r(&tp)?;
+            for i in 0..m.min(rp.len()) {
+                jac[(i, k)] = (rp[i] - res[i]) / hstep;
+            }
+        }
+        jtj = jac.transpose() * &jac;
+        let g = jac.transpose() * DVector::from_vec(res.clone());
+        let mut improved = false;
+        for _ in 0..12 {
+            let mut a = jtj.clone();
+            for k in 0..n {
+                a[(k, k)] += lambda * jtj[(k, k)].max(1e-12);
+            }
+            let Some(step) = a.lu().solve(&(-&g)) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let mut trial: Vec<f64> = theta.iter().zip(step.iter()).map(|(t, s)| t + s).collect();
+            clamp(&mut trial);
+            if let Some(rt) = r(&trial) {
+                let ct: f64 = rt.iter().map(|x| x * x).sum();
+                if ct < cost {
+                    let rel = (cost - ct) / cost.max(1e-300);
+                    theta = trial;
+                    res = rt;
+                    cost = ct;
+                    lambda = (lambda * 0.3).max(1e-9);
+                    improved = true;
+                    if rel < 1e-9 {
+                        return Some(finish(theta, cost, &jtj, res.len()));
+                    }
+                    break;
+                }
+            }
+            lambda *= 10.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    Some(finish(theta, cost, &jtj, res.len()))
+}
+
+fn finish(theta: Vec<f64>, cost: f64, jtj: &DMatrix<f64>, m: usize) -> (Vec<f64>, f64, Vec<f64>) {
+    let n = theta.len();
+    let chi2 = (cost / (m as f64 - n as f64).max(1.0)).max(1.0);
+    let var = match jtj.clone().try_inverse() {
+        Some(inv) => (0..n).map(|k| inv[(k, k)].abs() * chi2).collect(),
+        None => vec![f64::INFINITY; n],
+    };
+    (theta, cost, var)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fits_an_exponential() {
+        let t: Vec<f64> = (0..50).map(|k| k as f64 * 0.1).collect();
+        let y: Vec<f64> = t.iter().map(|t| 2.0 * (-1.3 * t).exp()).collect();
+        let mut r = |p: &[f64]| {
+            Some(
+                t.iter()
+                    .zip(&y)
+                    .map(|(t, y)| p[0] * (-p[1] * t).exp() - y)
+                    .collect(),
+            )
+        };
+        let (p, cost, _) = minimise(
+            &[
+                Bounded {
+                    value: 1.0,
+                    min: 0.0,
+                    max: 10.0,
+                },
+                Bounded {
+                    value: 0.5,
+                    min: 0.0,
+                    max: 10.0,
+                },
+            ],
+            100,
+            &mut r,
+        )
+        .unwrap();
+        assert!(cost < 1e-16, "{cost}");
+        assert!((p[0] - 2.0).abs() < 1e-6 && (p[1] - 1.3).abs() < 1e-6);
+    }
+
+    #[test]
+    fn respects_bounds() {
+        let mut r = |p: &[f64]| Some(vec![p[0] - 5.0]);
+        let (p, _, _) = minimise(
+            &[Bounded {
+                value: 0.0,
+                min: -1.0,
+                max: 1.0,
+            }],
+            50,
+            &mut r,
+        )
+        .unwrap();
+        assert_eq!(p[0], 1.0);
+    }
+}
