@@ -3,6 +3,7 @@
 mod ci;
 mod demo;
 mod env;
+mod fmu;
 mod identify;
 mod setup;
 mod simulate;
@@ -42,6 +43,20 @@ enum Cmd {
         /// Print a machine-readable summary on standard output.
         #[arg(long)]
         json: bool,
+    },
+    /// Build the FMI 2.0 and FMI 3.0 co-simulation FMUs of a model file: zmp_plant.fmu,
+    /// zmp_controller.fmu and their _fmi3 versions (Linux 64-bit). Parameter start values are
+    /// the model file's; the GUID changes with the model's content.
+    Fmu {
+        /// Model file (zmp-model/1).
+        #[arg(long, default_value = "models/params/silo2-paper.toml")]
+        model: PathBuf,
+        /// Output folder.
+        #[arg(long, default_value = "target/fmu")]
+        out: PathBuf,
+        /// Overwrite existing .fmu files.
+        #[arg(long)]
+        force: bool,
     },
     /// Simulate a stepped-sine campaign (zmp-campaign/1) on the virtual robot.
     ///
@@ -150,6 +165,11 @@ fn run(cli: Cli) -> Result<()> {
             })
             .map(|_| ())
         }
+        Cmd::Fmu { model, out, force } => fmu::build_fmus(&model, &out, force).map(|files| {
+            for f in files {
+                println!("{}", f.display());
+            }
+        }),
         Cmd::Simulate {
             model,
             design,

@@ -1,0 +1,304 @@
+//! Building the FMU archives: `cargo build` of the shared libraries, then the FMU folder layout
+//! (`modelDescription.xml`, `binaries/<platform>/<modelIdentifier>.so`, `resources/model.toml`,
+//! `documentation/index.html`) zipped to a temporary file and renamed into place.
+//!
+//! The FMI 2.0 binary (`zmp-fmu`) is generic: it reads `resources/model.toml` at instantiation.
+//! The FMI 3.0 binaries (`zmp-fmi3-plant`, `zmp-fmi3-controller`) embed the model: fmi-export
+//! fixes the instantiation token and the variable list at compile time, so they are compiled
+//! with `ZMP_FMU_MODEL` pointing at the model file, and their model description comes from the
+//! same binary (its `--model-description` executable).
+
+use crate::vars::{FmiVersion, Kind, VarTable};
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use zmp_models::ModelSpec;
+
+/// What to build.
+#[derive(Debug, Clone)]
+pub struct BuildOptions {
+    /// `cargo build --release` (else the dev profile).
+    pub release: bool,
+    /// Also the FMI 3.0 FMUs (needs libclang).
+    pub fmi3: bool,
+    /// Also the trivial pass-through FMU (benchmark baseline).
+    pub passthrough: bool,
+    /// Overwrite existing `.fmu` files.
+    pub force: bool,
+    /// `CARGO_TARGET_DIR` for the builds (`None`: inherit).
+    pub target_dir: Option<PathBuf>,
+}
+
+impl Default for BuildOptions {
+    fn default() -> Self {
+        BuildOptions {
+            release: true,
+            fmi3: true,
+            passthrough: false,
+            force: false,
+            target_dir: None,
+        }
+    }
+}
+
+/// The workspace root (where this crate was compiled from).
+pub fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .unwrap_or_else(|_| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../..")))
+}
+
+/// Artifacts of one `cargo build`.
+#[derive(Debug, Default)]
+struct Artifacts {
+    dylibs: Vec<PathBuf>,
+    executables: Vec<PathBuf>,
+}
+
+fn cargo_build(
+    package: &str,
+    opts: &BuildOptions,
+    env: &[(&str, &Path)],
+) -> Result<Artifacts, String> {
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let mut cmd = Command::new(cargo);
+    cmd.arg("build")
+        .arg("--manifest-path")
+        .arg(workspace_root().join("Cargo.toml"))
+        .args(["-p", package, "--message-format=json-render-diagnostics"]);
+    if opts.release {
+        cmd.arg("--release");
+    }
+    if let Some(t) = &opts.target_dir {
+        cmd.env("CARGO_TARGET_DIR", t);
+    }
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    cmd.stderr(std::process::Stdio::inherit());
+    let out = cmd
+        .output()
+        .map_err(|e| format!("cannot run cargo build -p {package}: {e}"))?;
+    if !out.status.success() {
+        return Err(format!("cargo build -p {package} failed ({})", out.status));
+    }
+    let mut a = Artifacts::default();
+    let crate_name = package.replace('-', "_");
+    for line in String::from_utf8_lossy(&out.stdout).lines() {
+        let Ok(msg) = serde_json::from_str::<serde_json::Value>(line) else {
+            continue;
+        };
+        if msg["reason"] != "compiler-artifact"
+            || msg["target"]["name"] != crate_name.as_str() && msg["target"]["name"] != package
+        {
+            continue;
+        }
+        if let Some(files) = msg["filenames"].as_array() {
+            for f in files.iter().filter_map(|f| f.as_str()) {
+                if f.ends_with(std::env::consts::DLL_SUFFIX) {
+                    a.dylibs.push(PathBuf::from(f));
+                }
+            }
+        }
+        if let Some(exe) = msg["executable"].as_str() {
+            a.executables.push(PathBuf::from(exe));
+        }
+    }
+    Ok(a)
+}
+
+/// Writes `entries` as a zip archive at `path`: to a temporary file in the same directory,
+/// then renamed into place.
+pub fn write_zip(path: &Path, entries: &[(String, Vec<u8>)]) -> Result<(), String> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let tmp = dir.join(format!(
+        ".{}.tmp{}",
+        path.file_name().and_then(|n| n.to_str()).unwrap_or("fmu"),
+        std::process::id()
+    ));
+    let result = (|| -> Result<(), String> {
+        let file = std::fs::File::create(&tmp).map_err(|e| format!("{}: {e}", tmp.display()))?;
+        let mut zw = zip::ZipWriter::new(file);
+        let opts = zip::write::SimpleFileOptions::default()
+            .compression_method(zip::CompressionMethod::Deflated)
+            .unix_permissions(0o644);
+        let mut dirs: Vec<String> = Vec::new();
+        for (name, _) in entries {
+            let mut acc = String::new();
+            let parts: Vec<&str> = name.split('/').collect();
+            for p in &parts[..parts.len() - 1] {
+                acc.push_str(p);
+                acc.push('/');
+                if !dirs.contains(&acc) {
+                    dirs.push(acc.clone());
+                }
+            }
+        }
+        for d in &dirs {
+            zw.add_directory(d.as_str(), opts)
+                .map_err(|e| e.to_string())?;
+        }
+        for (name, data) in entries {
+            zw.start_file(name.as_str(), opts)
+                .map_err(|e| e.to_string())?;
+            zw.write_all(data).map_err(|e| e.to_string())?;
+        }
+        zw.finish().map_err(|e| e.to_string())?;
+        Ok(())
+    })();
+    match result {
+        Ok(()) => std::fs::rename(&tmp, path).map_err(|e| format!("{}: {e}", path.display())),
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            Err(format!("{}: {e}", path.display()))
+        }
+    }
+}
+
+/// Display name of the model: its `name`, else the file stem.
+pub fn model_name(spec: &ModelSpec, path: &Path) -> String {
+    spec.name.clone().unwrap_or_else(|| {
+        path.file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "model".into())
+    })
+}
+
+/// The archive entries of the FMI 2.0 FMU of `kind`.
+pub fn fmi2_entries(
+    kind: Kind,
+    model_toml: &str,
+    model_name: &str,
+    dylib: &[u8],
+) -> Result<Vec<(String, Vec<u8>)>, String> {
+    let spec = ModelSpec::parse(model_toml, model_name).map_err(|e| e.to_string())?;
+    let table = VarTable::new(kind, &spec)?;
+    let guid = kind.guid(FmiVersion::V2, model_toml);
+    let id = kind.model_identifier(FmiVersion::V2);
+    Ok(vec![
+        (
+            "modelDescription.xml".into(),
+            crate::xml2::model_description(&table, &guid, model_name).into_bytes(),
+        ),
+        (format!("binaries/linux64/{id}.so"), dylib.to_vec()),
+        (
+            "resources/model.toml".into(),
+            model_toml.as_bytes().to_vec(),
+        ),
+        (
+            "documentation/index.html".into(),
+            crate::xml2::documentation(&table, model_name).into_bytes(),
+        ),
+    ])
+}
+
+/// The archive entries of an FMI 3.0 FMU whose model description is `xml`.
+pub fn fmi3_entries(
+    kind: Kind,
+    model_toml: &str,
+    xml: String,
+    dylib: &[u8],
+) -> Vec<(String, Vec<u8>)> {
+    let id = kind.model_identifier(FmiVersion::V3);
+    vec![
+        ("modelDescription.xml".into(), xml.into_bytes()),
+        (format!("binaries/x86_64-linux/{id}.so"), dylib.to_vec()),
+        (
+            "resources/model.toml".into(),
+            model_toml.as_bytes().to_vec(),
+        ),
+    ]
+}
+
+/// The `.fmu` files `build_fmus` writes for `opts`, in order.
+pub fn fmu_paths(out: &Path, opts: &BuildOptions) -> Vec<(Kind, FmiVersion, PathBuf)> {
+    let mut v = vec![
+        (Kind::Plant, FmiVersion::V2),
+        (Kind::Controller, FmiVersion::V2),
+    ];
+    if opts.passthrough {
+        v.push((Kind::Passthrough, FmiVersion::V2));
+    }
+    if opts.fmi3 {
+        v.push((Kind::Plant, FmiVersion::V3));
+        v.push((Kind::Controller, FmiVersion::V3));
+    }
+    v.into_iter()
+        .map(|(k, f)| (k, f, out.join(format!("{}.fmu", k.model_identifier(f)))))
+        .collect()
+}
+
+fn read(path: &Path) -> Result<Vec<u8>, String> {
+    std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Builds the FMUs of the model file `model` into `out` (see the module docs).
+pub fn build_fmus(model: &Path, out: &Path, opts: &BuildOptions) -> Result<Vec<PathBuf>, String> {
+    let model = model
+        .canonicalize()
+        .map_err(|e| format!("{}: {e}", model.display()))?;
+    let model_toml =
+        std::fs::read_to_string(&model).map_err(|e| format!("{}: {e}", model.display()))?;
+    let spec =
+        ModelSpec::parse(&model_toml, &model.display().to_string()).map_err(|e| e.to_string())?;
+    let name = model_name(&spec, &model);
+    let targets = fmu_paths(out, opts);
+    if !opts.force {
+        let existing: Vec<String> = targets
+            .iter()
+            .filter(|(_, _, p)| p.exists())
+            .map(|(_, _, p)| p.display().to_string())
+            .collect();
+        if !existing.is_empty() {
+            return Err(format!(
+                "refusing to overwrite {} (use --force)",
+                existing.join(", ")
+            ));
+        }
+    }
+    let fmi2 = cargo_build("zmp-fmu", opts, &[])?;
+    let fmi2_lib = fmi2
+        .dylibs
+        .first()
+        .ok_or("cargo build -p zmp-fmu produced no shared library")?;
+    let fmi2_bytes = read(fmi2_lib)?;
+    let mut written = Vec::new();
+    for (kind, fmi, path) in &targets {
+        let entries = match fmi {
+            FmiVersion::V2 => fmi2_entries(*kind, &model_toml, &name, &fmi2_bytes)?,
+            FmiVersion::V3 => {
+                let package = match kind {
+                    Kind::Plant => "zmp-fmi3-plant",
+                    Kind::Controller => "zmp-fmi3-controller",
+                    Kind::Passthrough => unreachable!("no FMI 3.0 pass-through"),
+                };
+                let a = cargo_build(package, opts, &[("ZMP_FMU_MODEL", &model)])?;
+                let lib = a.dylibs.first().ok_or_else(|| {
+                    format!("cargo build -p {package} produced no shared library")
+                })?;
+                let exe = a
+                    .executables
+                    .first()
+                    .ok_or_else(|| format!("cargo build -p {package} produced no executable"))?;
+                let xml = Command::new(exe)
+                    .arg("--model-description")
+                    .output()
+                    .map_err(|e| format!("{}: {e}", exe.display()))?;
+                if !xml.status.success() {
+                    return Err(format!(
+                        "{} --model-description failed: {}",
+                        exe.display(),
+                        String::from_utf8_lossy(&xml.stderr)
+                    ));
+                }
+                let xml = String::from_utf8(xml.stdout).map_err(|e| e.to_string())?;
+                fmi3_entries(*kind, &model_toml, xml, &read(lib)?)
+            }
+        };
+        write_zip(path, &entries)?;
+        written.push(path.clone());
+    }
+    Ok(written)
+}

@@ -1,0 +1,669 @@
+//! The one table of FMU variables: value references, names, causalities, units, descriptions,
+//! start values and bounds. The FMI 2.0 and 3.0 shells dispatch value references through it and
+//! the model descriptions are written from it, so the two cannot disagree.
+//!
+//! Value references: the fixed variables of a kind are numbered from 0 in table order; the
+//! model-file parameters of the plant are `PARAM_VR_BASE + i`, `i` their index in
+//! [`ModelSpec::parameters`] (canonical effect order, then parameter order), so they are
+//! deterministic for a given model file.
+
+use zmp_models::closed_loop::{com_for_zmp, StepExperiment};
+use zmp_models::controller::CascadeParams;
+use zmp_models::{ModelSpec, Plant, DEFAULT_STEP};
+
+/// First value reference of the model-file parameters of the plant.
+pub const PARAM_VR_BASE: u32 = 100;
+
+/// Which FMU.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Kind {
+    /// The ZMP plant of the model file.
+    Plant,
+    /// The cascade ZMP controller.
+    Controller,
+    /// A trivial FMU with the plant's interface shape (2 inputs, 4 outputs) and no physics: the
+    /// baseline of the FMPy overhead benchmark.
+    Passthrough,
+}
+
+/// FMI version of a shell.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum FmiVersion {
+    V2,
+    V3,
+}
+
+impl Kind {
+    pub const ALL: [Kind; 3] = [Kind::Plant, Kind::Controller, Kind::Passthrough];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::Plant => "plant",
+            Kind::Controller => "controller",
+            Kind::Passthrough => "passthrough",
+        }
+    }
+
+    /// The FMI model identifier: the shared library's and the `.fmu` file's base name.
+    pub const fn model_identifier(self, fmi: FmiVersion) -> &'static str {
+        match (self, fmi) {
+            (Kind::Plant, FmiVersion::V2) => "zmp_plant",
+            (Kind::Controller, FmiVersion::V2) => "zmp_controller",
+            (Kind::Passthrough, FmiVersion::V2) => "zmp_passthrough",
+            (Kind::Plant, FmiVersion::V3) => "zmp_plant_fmi3",
+            (Kind::Controller, FmiVersion::V3) => "zmp_controller_fmi3",
+            (Kind::Passthrough, FmiVersion::V3) => "zmp_passthrough_fmi3",
+        }
+    }
+
+    /// The flavour string hashed into the GUID.
+    pub fn flavour(self, fmi: FmiVersion) -> String {
+        let v = match fmi {
+            FmiVersion::V2 => "fmi2",
+            FmiVersion::V3 => "fmi3",
+        };
+        format!("{v}-{}", self.name())
+    }
+
+    /// The GUID (FMI 2.0) or instantiation token (FMI 3.0) for the model file text `model_toml`.
+    pub fn guid(self, fmi: FmiVersion, model_toml: &str) -> String {
+        crate::guid::guid(&self.flavour(fmi), model_toml)
+    }
+
+    pub fn description(self) -> &'static str {
+        match self {
+            Kind::Plant => {
+                "2x2 ZMP plant of a biped (zmp-model/1 file): CoM references in, ZMP and CoM out. \
+                 Fixed internal step h; the inputs set at a communication point ramp linearly \
+                 over the first internal step and are held after it."
+            }
+            Kind::Controller => {
+                "Cascade ZMP direct-feedback controller C1 = K1/s, C2 = K2/(s+K2) per axis, \
+                 sampled every h: ZMP reference and measured ZMP in, CoM references out."
+            }
+            Kind::Passthrough => {
+                "Trivial pass-through FMU (y1 = y3 = u1, y2 = y4 = u2): baseline for the FMU \
+                 overhead benchmarks."
+            }
+        }
+    }
+
+    /// `(stop time, communication step)` of the DefaultExperiment, s.
+    pub fn default_experiment(self) -> (f64, f64) {
+        match self {
+            Kind::Plant => (10.0, 1e-3),
+            Kind::Controller => (160.0, 1e-2),
+            Kind::Passthrough => (1.0, 1e-3),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Causality {
+    Parameter,
+    Input,
+    Output,
+}
+
+impl Causality {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Causality::Parameter => "parameter",
+            Causality::Input => "input",
+            Causality::Output => "output",
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Variability {
+    Fixed,
+    Discrete,
+    Continuous,
+}
+
+impl Variability {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Variability::Fixed => "fixed",
+            Variability::Discrete => "discrete",
+            Variability::Continuous => "continuous",
+        }
+    }
+}
+
+/// Parameters of the controller FMU.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CtrlParam {
+    K1,
+    K2,
+    ErrorScale,
+    MassRatio,
+    TrunkLength,
+    ThetaMin,
+    ThetaMax,
+    OffsetX,
+    OffsetY,
+}
+
+/// What a variable is, for dispatch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// Input number `i` of the kind.
+    Input(usize),
+    /// Output number `i` of the kind.
+    Output(usize),
+    /// The fixed internal step (plant) or sample period (controller), s.
+    Step,
+    /// Model-file parameter number `i` of [`ModelSpec::parameters`].
+    ModelParam(usize),
+    Controller(CtrlParam),
+}
+
+/// One variable of an FMU.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Var {
+    pub name: String,
+    pub vr: u32,
+    pub causality: Causality,
+    pub variability: Variability,
+    pub unit: &'static str,
+    pub description: String,
+    /// Start value: written to the model description for parameters and inputs; for outputs
+    /// the value at rest before initialisation.
+    pub start: f64,
+    /// Inclusive bounds accepted by the setter (infinite: none).
+    pub min: f64,
+    pub max: f64,
+    /// The value must be a whole number (random seeds).
+    pub whole: bool,
+    pub role: Role,
+}
+
+impl Var {
+    /// Checks a value the importer wants to set.
+    pub fn check(&self, v: f64) -> Result<(), String> {
+        if !v.is_finite() {
+            return Err(format!("{} = {v}: not a finite number", self.name));
+        }
+        if v < self.min || v > self.max {
+            return Err(format!(
+                "{} = {v} is out of bounds [{}, {}] {} ({})",
+                self.name, self.min, self.max, self.unit, self.description
+            ));
+        }
+        if self.whole && v.fract() != 0.0 {
+            return Err(format!("{} = {v} must be a whole number", self.name));
+        }
+        Ok(())
+    }
+
+    pub fn has_min(&self) -> bool {
+        self.min.is_finite()
+    }
+
+    pub fn has_max(&self) -> bool {
+        self.max.is_finite()
+    }
+}
+
+/// The variables of one FMU kind for one model.
+#[derive(Debug, Clone)]
+pub struct VarTable {
+    pub kind: Kind,
+    pub vars: Vec<Var>,
+    /// Variables `0..n_fixed` have value reference = index.
+    n_fixed: usize,
+    pub n_inputs: usize,
+    pub n_outputs: usize,
+}
+
+/// The operating point the FMUs start at by default: the seed experiment's initial ZMP
+/// reference (section 6.6), with the plant at rest there and the controller's trunk upright.
+pub fn initial_zmp() -> [f64; 2] {
+    StepExperiment::silo2().zmp_ref_before
+}
+
+/// CoM reference holding the plant of `spec` at rest with its ZMP at [`initial_zmp`], and the
+/// plant's outputs there.
+pub fn initial_operating_point(
+    spec: &ModelSpec,
+) -> Result<([f64; 2], zmp_models::PlantOutput), String> {
+    let mut plant = Plant::new(spec, DEFAULT_STEP).map_err(|e| e.to_string())?;
+    let com0 = com_for_zmp(&plant, initial_zmp());
+    let out = plant.reset(com0);
+    Ok((com0, out))
+}
+
+struct Builder {
+    vars: Vec<Var>,
+}
+
+impl Builder {
+    #[allow(clippy::too_many_arguments)]
+    fn push(
+        &mut self,
+        name: &str,
+        causality: Causality,
+        variability: Variability,
+        unit: &'static str,
+        description: &str,
+        start: f64,
+        bounds: (f64, f64),
+        role: Role,
+    ) {
+        let vr = self.vars.len() as u32;
+        self.vars.push(Var {
+            name: name.to_string(),
+            vr,
+            causality,
+            variability,
+            unit,
+            description: description.to_string(),
+            start,
+            min: bounds.0,
+            max: bounds.1,
+            whole: false,
+            role,
+        });
+    }
+}
+
+const FREE: (f64, f64) = (f64::NEG_INFINITY, f64::INFINITY);
+
+impl VarTable {
+    /// The table of `kind` for the model `spec`.
+    pub fn new(kind: Kind, spec: &ModelSpec) -> Result<VarTable, String> {
+        use Causality::*;
+        use Variability::*;
+        let mut b = Builder { vars: Vec::new() };
+        let (n_inputs, n_outputs);
+        match kind {
+            Kind::Plant => {
+                let (com0, out) = initial_operating_point(spec)?;
+                b.push(
+                    "x_cr",
+                    Input,
+                    Continuous,
+                    "m",
+                    "CoM reference, lateral (x)",
+                    com0[0],
+                    FREE,
+                    Role::Input(0),
+                );
+                b.push(
+                    "y_cr",
+                    Input,
+                    Continuous,
+                    "m",
+                    "CoM reference, sagittal (y)",
+                    com0[1],
+                    FREE,
+                    Role::Input(1),
+                );
+                b.push(
+                    "zmp_x",
+                    Output,
+                    Continuous,
+                    "m",
+                    "measured ZMP, lateral (x)",
+                    out.zmp[0],
+                    FREE,
+                    Role::Output(0),
+                );
+                b.push(
+                    "zmp_y",
+                    Output,
+                    Continuous,
+                    "m",
+                    "measured ZMP, sagittal (y)",
+                    out.zmp[1],
+                    FREE,
+                    Role::Output(1),
+                );
+                b.push(
+                    "x_c",
+                    Output,
+                    Continuous,
+                    "m",
+                    "CoM position, lateral (x)",
+                    out.com[0],
+                    FREE,
+                    Role::Output(2),
+                );
+                b.push(
+                    "y_c",
+                    Output,
+                    Continuous,
+                    "m",
+                    "CoM position, sagittal (y)",
+                    out.com[1],
+                    FREE,
+                    Role::Output(3),
+                );
+                b.push(
+                    "h",
+                    Parameter,
+                    Fixed,
+                    "s",
+                    "fixed internal step of the plant; the internal time grid is start + n h",
+                    DEFAULT_STEP,
+                    (1e-9, 0.1),
+                    Role::Step,
+                );
+                n_inputs = 2;
+                n_outputs = 4;
+            }
+            Kind::Controller => {
+                let (com0, out) = initial_operating_point(spec)?;
+                let p = CascadeParams::silo2();
+                let z0 = initial_zmp();
+                let dt = StepExperiment::silo2().controller_period;
+                b.push(
+                    "zmp_ref_x",
+                    Input,
+                    Continuous,
+                    "m",
+                    "ZMP reference, lateral (x)",
+                    z0[0],
+                    FREE,
+                    Role::Input(0),
+                );
+                b.push(
+                    "zmp_ref_y",
+                    Input,
+                    Continuous,
+                    "m",
+                    "ZMP reference, sagittal (y)",
+                    z0[1],
+                    FREE,
+                    Role::Input(1),
+                );
+                b.push(
+                    "zmp_x",
+                    Input,
+                    Continuous,
+                    "m",
+                    "measured ZMP, lateral (x)",
+                    out.zmp[0],
+                    FREE,
+                    Role::Input(2),
+                );
+                b.push(
+                    "zmp_y",
+                    Input,
+                    Continuous,
+                    "m",
+                    "measured ZMP, sagittal (y)",
+                    out.zmp[1],
+                    FREE,
+                    Role::Input(3),
+                );
+                b.push(
+                    "x_cr",
+                    Output,
+                    Discrete,
+                    "m",
+                    "CoM reference, lateral (x): com_offset_x + (m_t/m_r) l_t theta_x",
+                    com0[0],
+                    FREE,
+                    Role::Output(0),
+                );
+                b.push(
+                    "y_cr",
+                    Output,
+                    Discrete,
+                    "m",
+                    "CoM reference, sagittal (y): com_offset_y + (m_t/m_r) l_t theta_y",
+                    com0[1],
+                    FREE,
+                    Role::Output(1),
+                );
+                b.push(
+                    "theta_x",
+                    Output,
+                    Discrete,
+                    "rad",
+                    "trunk angle reference, lateral (x)",
+                    0.0,
+                    FREE,
+                    Role::Output(2),
+                );
+                b.push(
+                    "theta_y",
+                    Output,
+                    Discrete,
+                    "rad",
+                    "trunk angle reference, sagittal (y)",
+                    0.0,
+                    FREE,
+                    Role::Output(3),
+                );
+                b.push(
+                    "h",
+                    Parameter,
+                    Fixed,
+                    "s",
+                    "sample period; samples at start + n h",
+                    dt,
+                    (1e-6, 10.0),
+                    Role::Step,
+                );
+                b.push(
+                    "K1",
+                    Parameter,
+                    Fixed,
+                    "rad/s",
+                    "integral gain of C1 = K1/s (trunk angle rate per error unit)",
+                    p.k1,
+                    (0.0, 1e3),
+                    Role::Controller(CtrlParam::K1),
+                );
+                b.push(
+                    "K2",
+                    Parameter,
+                    Fixed,
+                    "rad/s",
+                    "corner of the lag C2 = K2/(s + K2)",
+                    p.k2,
+                    (0.0, 1e4),
+                    Role::Controller(CtrlParam::K2),
+                );
+                b.push(
+                    "error_scale",
+                    Parameter,
+                    Fixed,
+                    "1/m",
+                    "error units per metre of ZMP error (100: centimetres)",
+                    p.error_scale,
+                    (1e-6, 1e6),
+                    Role::Controller(CtrlParam::ErrorScale),
+                );
+                b.push(
+                    "mass_ratio",
+                    Parameter,
+                    Fixed,
+                    "1",
+                    "trunk mass over robot mass m_t/m_r",
+                    p.mass_ratio,
+                    (1e-6, 1.0),
+                    Role::Controller(CtrlParam::MassRatio),
+                );
+                b.push(
+                    "trunk_length",
+                    Parameter,
+                    Fixed,
+                    "m",
+                    "trunk length l_t",
+                    p.trunk_length,
+                    (1e-6, 100.0),
+                    Role::Controller(CtrlParam::TrunkLength),
+                );
+                b.push(
+                    "theta_min",
+                    Parameter,
+                    Fixed,
+                    "rad",
+                    "lower trunk angle limit (anti-windup clamp)",
+                    p.theta_min,
+                    (-3.2, 3.2),
+                    Role::Controller(CtrlParam::ThetaMin),
+                );
+                b.push(
+                    "theta_max",
+                    Parameter,
+                    Fixed,
+                    "rad",
+                    "upper trunk angle limit (anti-windup clamp)",
+                    p.theta_max,
+                    (-3.2, 3.2),
+                    Role::Controller(CtrlParam::ThetaMax),
+                );
+                b.push(
+                    "com_offset_x",
+                    Parameter,
+                    Fixed,
+                    "m",
+                    "CoM reference at zero trunk angle, lateral (x); the controller starts there",
+                    com0[0],
+                    (-10.0, 10.0),
+                    Role::Controller(CtrlParam::OffsetX),
+                );
+                b.push(
+                    "com_offset_y",
+                    Parameter,
+                    Fixed,
+                    "m",
+                    "CoM reference at zero trunk angle, sagittal (y); the controller starts there",
+                    com0[1],
+                    (-10.0, 10.0),
+                    Role::Controller(CtrlParam::OffsetY),
+                );
+                n_inputs = 4;
+                n_outputs = 4;
+            }
+            Kind::Passthrough => {
+                b.push(
+                    "u1",
+                    Input,
+                    Continuous,
+                    "1",
+                    "input 1",
+                    0.0,
+                    FREE,
+                    Role::Input(0),
+                );
+                b.push(
+                    "u2",
+                    Input,
+                    Continuous,
+                    "1",
+                    "input 2",
+                    0.0,
+                    FREE,
+                    Role::Input(1),
+                );
+                b.push(
+                    "y1",
+                    Output,
+                    Continuous,
+                    "1",
+                    "u1",
+                    0.0,
+                    FREE,
+                    Role::Output(0),
+                );
+                b.push(
+                    "y2",
+                    Output,
+                    Continuous,
+                    "1",
+                    "u2",
+                    0.0,
+                    FREE,
+                    Role::Output(1),
+                );
+                b.push(
+                    "y3",
+                    Output,
+                    Continuous,
+                    "1",
+                    "u1",
+                    0.0,
+                    FREE,
+                    Role::Output(2),
+                );
+                b.push(
+                    "y4",
+                    Output,
+                    Continuous,
+                    "1",
+                    "u2",
+                    0.0,
+                    FREE,
+                    Role::Output(3),
+                );
+                n_inputs = 2;
+                n_outputs = 4;
+            }
+        }
+        let n_fixed = b.vars.len();
+        assert!((n_fixed as u32) < PARAM_VR_BASE);
+        if kind == Kind::Plant {
+            for (i, p) in spec.parameters().into_iter().enumerate() {
+                let title = spec.effects[p.effect].info.title;
+                b.vars.push(Var {
+                    name: p.key.clone(),
+                    vr: PARAM_VR_BASE + i as u32,
+                    causality: Causality::Parameter,
+                    variability: Variability::Fixed,
+                    unit: p.spec.unit,
+                    description: format!("{title}: {}", p.spec.doc),
+                    start: p.value,
+                    min: p.spec.min,
+                    max: p.spec.max,
+                    whole: p.spec.name == "delta_seed",
+                    role: Role::ModelParam(i),
+                });
+            }
+        }
+        Ok(VarTable {
+            kind,
+            vars: b.vars,
+            n_fixed,
+            n_inputs,
+            n_outputs,
+        })
+    }
+
+    /// Index in [`VarTable::vars`] of value reference `vr`.
+    #[inline]
+    pub fn index_of(&self, vr: u32) -> Option<usize> {
+        let v = vr as usize;
+        if v < self.n_fixed {
+            Some(v)
+        } else if vr >= PARAM_VR_BASE {
+            let i = self.n_fixed + (vr - PARAM_VR_BASE) as usize;
+            (i < self.vars.len()).then_some(i)
+        } else {
+            None
+        }
+    }
+
+    pub fn by_name(&self, name: &str) -> Option<&Var> {
+        self.vars.iter().find(|v| v.name == name)
+    }
+
+    /// Every unit used, sorted, once.
+    pub fn units(&self) -> Vec<&'static str> {
+        let mut u: Vec<&'static str> = self.vars.iter().map(|v| v.unit).collect();
+        u.sort_unstable();
+        u.dedup();
+        u
+    }
+
+    /// Whether the outputs depend directly on the inputs at the same communication point.
+    pub fn direct_feedthrough(&self) -> bool {
+        matches!(self.kind, Kind::Controller | Kind::Passthrough)
+    }
+}
