@@ -544,6 +544,20 @@ pub fn identify_with_progress(
             .iter()
             .filter(|r| r.excluded.is_none())
             .filter(|r| r.third_harmonic_snr[r.excited.index()] > 6.0)
+            .filter(|r| {
+                // Saturation acts on the largest acceleration demands of an axis: odd
+                // harmonics at small demands come from something else (friction, backlash).
+                let demand = |q: &RecordFit| {
+                    q.amplitude * q.omega * q.omega * fit::lowpass(q.omega, wn0, z0).norm()
+                };
+                let mut d: Vec<f64> = records
+                    .iter()
+                    .filter(|q| q.excluded.is_none() && q.excited == r.excited)
+                    .map(demand)
+                    .collect();
+                d.sort_by(f64::total_cmp);
+                demand(r) >= d[d.len() / 2]
+            })
             .map(|r| r.index)
             .collect()
     } else {
@@ -1073,6 +1087,21 @@ fn build_model(
         for (i, row) in m.iter().enumerate() {
             for (j, prm) in row.iter().enumerate() {
                 let key = format!("{letter}{}{}", i + 1, j + 1);
+                // A structure without a coupling channel (both terms zero in the model given)
+                // keeps it out.
+                let absent = i != j
+                    && opts.start_model.as_ref().is_some_and(|m| {
+                        ["a", "b"].iter().all(|l| {
+                            m.value(
+                                "pendulum",
+                                Binding::Global,
+                                &format!("{l}{}{}", i + 1, j + 1),
+                            ) == Some(0.0)
+                        })
+                    });
+                if absent {
+                    continue;
+                }
                 if !spec.set_value("pendulum", Binding::Global, &key, prm.value) {
                     return Err(fail(&key));
                 }

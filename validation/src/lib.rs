@@ -1,3 +1,4 @@
+pub mod blind;
 pub mod campaign;
 pub mod diagnose;
 pub mod identify;

@@ -2,8 +2,8 @@
 //! it, the delay candidate recovers it, and its held-out error falls to the noise floor.
 
 use zmp_models::{lookup, Axis, Binding, EffectInstance, ModelSpec};
-use zmp_validation::diagnose::candidates::{DataRange, CATALOGUE};
-use zmp_validation::diagnose::engine::{cross_validate, evaluate, own_parameters, significant};
+use zmp_validation::diagnose::candidates::CATALOGUE;
+use zmp_validation::diagnose::engine::{evaluate, own_parameters, score_candidate, significant};
 use zmp_validation::diagnose::measure::aggregate;
 use zmp_validation::diagnose::observe::{observe, Observation};
 use zmp_validation::virtual_robot::{logspace, simulate_campaign, ExperimentDesign};
@@ -65,10 +65,9 @@ fn hidden_delay_is_seen_and_recovered() {
         "a 20 ms delay must show: error {e0}, floor {f}"
     );
     let cand = CATALOGUE.iter().find(|c| c.effect == "time_delay").unwrap();
-    let starts = (cand.prepare)(&base, &DataRange::of(&o));
-    let scored = cross_validate("time_delay", &starts, &o).unwrap();
+    let scored = score_candidate(cand, &base, &o).unwrap();
     let p = own_parameters(&scored);
-    let tau = p.values().next().copied().unwrap();
+    let tau = p.values().next().copied().unwrap().0;
     assert!(
         (tau - 0.02).abs() < 5e-4,
         "fitted delay {tau} s, truth 0.02 s ({p:?})"

@@ -38,12 +38,20 @@ impl Effect for AccelerationSaturation {
         &INFO
     }
     fn frequency_response(&self, omega: f64, amplitude: f64) -> Complex64 {
+        // The linear servo's steady acceleration is -w^2 H(jw) times the reference: while its
+        // amplitude stays below the limit the periodic state is the linear one.
+        let (wn, zeta) = self.servo;
+        let h = wn * wn / Complex64::new(wn * wn - omega * omega, 2.0 * zeta * wn * omega);
+        if omega * omega * h.norm() * amplitude <= 0.999 * self.limit {
+            return Complex64::new(1.0, 0.0);
+        }
         let mut limits: [Box<dyn Effect>; 1] = [Box::new(self.clone())];
         servo_describing_function(
             self.servo.0,
             self.servo.1,
             self.h,
             &mut limits,
+            [2.0, self.limit],
             omega,
             amplitude,
         )

@@ -45,6 +45,7 @@ impl Effect for CoulombFriction {
             self.servo.1,
             self.h,
             &mut limits,
+            [1.0, self.level],
             omega,
             amplitude,
         )

@@ -10,9 +10,11 @@ use crate::effect::Effect;
 use crate::effects::tracking_lowpass::TrackingLowpass;
 use crate::harmonic::steady_first_harmonics;
 use crate::lti::discretise_foh;
-use crate::plant::{MAX_SETTLE_PERIODS, MAX_SETTLE_STEPS};
+use crate::plant::MAX_SETTLE_STEPS;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
+use std::collections::HashMap;
+use std::sync::{LazyLock, Mutex};
 
 /// CoM state of one axis after a step.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -170,9 +172,75 @@ fn offset(limits: &mut [Box<dyn Effect>], demand: f64, v: f64) -> f64 {
     a - demand
 }
 
+/// Describing functions already computed, by their exact inputs: fits evaluate the same servo
+/// at the same frequencies and amplitudes many times (once per output, per operating point,
+/// per Jacobian column of a parameter the servo ignores).
+static DF_CACHE: LazyLock<Mutex<HashMap<[u64; 7], Complex64>>> =
+    LazyLock::new(|| Mutex::new(HashMap::new()));
+
+/// Entries kept before the cache starts afresh.
+const DF_CACHE_MAX: usize = 200_000;
+
+fn cached(key: [f64; 7], compute: impl FnOnce() -> Complex64) -> Complex64 {
+    let k = key.map(f64::to_bits);
+    let lock = || DF_CACHE.lock().unwrap_or_else(|p| p.into_inner());
+    if let Some(v) = lock().get(&k).copied() {
+        return v;
+    }
+    let v = compute();
+    let mut c = lock();
+    if c.len() >= DF_CACHE_MAX {
+        c.clear();
+    }
+    c.insert(k, v);
+    v
+}
+
 /// First harmonic of the servo position with `limits`, divided by the linear servo's, for a
 /// reference sine of `amplitude` at `omega`: the describing function of a servo effect.
+/// `identity` names the limits exactly (effect id and parameters) for the cache.
+///
+/// The step divides the period exactly (so one period's Fourier sum is exact for a periodic
+/// response) and is about the servo's `h`, lengthened at low frequency to 1/2048 of a period
+/// (at most 2.5 h, inside RK4's stability for the regularised friction built with `h`): the
+/// linear part is exact at any step. Both runs use the same step, so the sampling's own small
+/// effect on the first harmonic cancels in the ratio.
 pub fn servo_describing_function(
+    omega_n: f64,
+    zeta: f64,
+    h: f64,
+    limits: &mut [Box<dyn Effect>],
+    identity: [f64; 2],
+    omega: f64,
+    amplitude: f64,
+) -> Complex64 {
+    let base = [omega_n, zeta, h, omega];
+    let with = cached(
+        [
+            base[0],
+            base[1],
+            base[2],
+            base[3],
+            amplitude,
+            identity[0],
+            identity[1],
+        ],
+        || servo_first_harmonic(omega_n, zeta, h, limits, omega, amplitude),
+    );
+    // The linear servo's response does not depend on the amplitude.
+    let without = cached([base[0], base[1], base[2], base[3], 0.0, 0.0, 0.0], || {
+        servo_first_harmonic(omega_n, zeta, h, &mut [], omega, 1.0)
+    });
+    with / without
+}
+
+/// Periods compared one by one before the general (subharmonic-aware) settling takes over.
+const FAST_PERIODS: usize = 40;
+/// Relative change of the one-period phasor at which the servo counts as periodic.
+const FAST_SETTLED_REL: f64 = 1e-8;
+
+/// Steady-state first harmonic of the servo position over the reference's amplitude.
+fn servo_first_harmonic(
     omega_n: f64,
     zeta: f64,
     h: f64,
@@ -180,24 +248,50 @@ pub fn servo_describing_function(
     omega: f64,
     amplitude: f64,
 ) -> Complex64 {
-    let run = |limits: &mut [Box<dyn Effect>]| -> Complex64 {
-        let mut servo = Servo::new(omega_n, zeta, h);
-        servo.reset(0.0);
-        let period = 2.0 * std::f64::consts::PI / omega;
-        let slowest = TrackingLowpass { omega_n, zeta }.slowest_time_constant();
-        let settle = (8.0 * slowest).max(3.0 * period);
-        let n_settle = (settle / h).ceil() as usize;
-        let per = (period / h).round().max(8.0) as usize;
-        let n_max = n_settle + (per * MAX_SETTLE_PERIODS).min(MAX_SETTLE_STEPS);
-        let [x] = steady_first_harmonics(omega, h, n_settle, n_max, |k| {
-            let t = k as f64 * h;
-            [servo.step(amplitude * (omega * t).sin(), limits).position]
-        });
-        x / amplitude
-    };
-    let with = run(limits);
-    let without = run(&mut []);
-    with / without
+    let period = 2.0 * std::f64::consts::PI / omega;
+    let target = h.max((period / 2048.0).min(2.5 * h));
+    let per = ((period / target).ceil() as usize).max(16);
+    let h_df = period / per as f64;
+    let mut servo = Servo::new(omega_n, zeta, h_df);
+    servo.reset(0.0);
+    let slowest = TrackingLowpass { omega_n, zeta }.slowest_time_constant();
+    let n_settle = (((8.0 * slowest).max(0.5 * period)) / h_df).ceil() as usize;
+    // The reference by rotation: e^{j w k h}, renormalised once per period.
+    let rot = Complex64::from_polar(1.0, omega * h_df);
+    let mut e = Complex64::new(1.0, 0.0);
+    for _ in 0..n_settle {
+        e *= rot;
+        servo.step(amplitude * e.im, limits);
+    }
+    let mut previous: Option<Complex64> = None;
+    for _ in 0..FAST_PERIODS {
+        // Sin-referenced phasor over one whole period: p = (2j/N) sum y_k e^{-j w t_k}.
+        let mut acc = Complex64::new(0.0, 0.0);
+        for _ in 0..per {
+            e *= rot;
+            let x = servo.step(amplitude * e.im, limits).position;
+            acc += x * e.conj();
+        }
+        e /= e.norm();
+        let p = acc * Complex64::new(0.0, 2.0 / per as f64);
+        if let Some(q) = previous {
+            if (p - q).norm() <= FAST_SETTLED_REL * p.norm().max(q.norm()) {
+                return p / amplitude;
+            }
+        }
+        previous = Some(p);
+    }
+    // Not periodic at the input's period: let the general routine find the (sub)harmonic
+    // steady state.
+    // Bounded: a describing function is an approximation anyway where the servo does not
+    // lock to the input's period within a hundred periods.
+    let n_max = n_settle + (per * 100).min(MAX_SETTLE_STEPS);
+    servo.reset(0.0);
+    let [x] = steady_first_harmonics(omega, h_df, n_settle, n_max, |k| {
+        let t = k as f64 * h_df;
+        [servo.step(amplitude * (omega * t).sin(), limits).position]
+    });
+    x / amplitude
 }
 
 #[cfg(test)]

@@ -99,7 +99,7 @@ const AXES: [Binding; 2] = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
 
 /// The core parameters refitted with every candidate: the diagonal pendulum, the off-diagonal
 /// terms the model already has, and the tracking low-pass (shared by the axes).
-pub fn core_frees(spec: &ModelSpec) -> Vec<Free> {
+pub fn core_frees(spec: &ModelSpec, bandwidth: bool) -> Vec<Free> {
     let mut out = Vec::new();
     for ch in Channel::ALL {
         let diag = ch.output == ch.input;
@@ -127,6 +127,9 @@ pub fn core_frees(spec: &ModelSpec) -> Vec<Free> {
             }
         }
     }
+    if !bandwidth {
+        return out;
+    }
     let wn = spec
         .value("tracking_lowpass", AXES[0], "omega_n")
         .unwrap_or(30.0);
@@ -138,16 +141,16 @@ pub fn core_frees(spec: &ModelSpec) -> Vec<Free> {
         AXES.to_vec(),
         "omega_n",
         wn,
-        0.5,
-        1e4,
+        1.0,
+        1e3,
     ));
     out.push(Free::new(
         "tracking_lowpass",
         AXES.to_vec(),
         "zeta",
         zeta,
-        0.02,
-        10.0,
+        0.1,
+        5.0,
     ));
     out
 }
@@ -221,43 +224,90 @@ fn time_delay(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     )
 }
 
+/// The effect on every excited axis, each axis with its own free parameter (an axis without
+/// the effect fits to the parameter's "off" end), from each of the `scan` starting values.
+fn per_axis(
+    spec: &ModelSpec,
+    r: &DataRange,
+    kind: &'static str,
+    param: &'static str,
+    scan: &[f64],
+    min: f64,
+    max: f64,
+) -> Vec<Start> {
+    let axes: Vec<Binding> = AXES
+        .iter()
+        .zip(r.axes_excited)
+        .filter(|(_, e)| *e)
+        .map(|(b, _)| *b)
+        .collect();
+    scan.iter()
+        .map(|&v| {
+            let s = with(spec, kind, &axes, &[v]);
+            let frees = axes
+                .iter()
+                .map(|b| Free::new(kind, vec![*b], param, v, min, max))
+                .collect();
+            (s, frees)
+        })
+        .collect()
+}
+
+fn servo_params(spec: &ModelSpec) -> (f64, f64) {
+    (
+        spec.value("tracking_lowpass", AXES[0], "omega_n")
+            .unwrap_or(30.0),
+        spec.value("tracking_lowpass", AXES[0], "zeta")
+            .unwrap_or(1.0),
+    )
+}
+
 fn backlash(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     let a = r.amplitude_min;
-    one_param(
+    per_axis(
         spec,
         r,
         "backlash",
         "width",
-        &[0.1 * a, 0.4 * a, 1.0 * a],
+        &[0.1 * a, 0.5 * a],
         0.0,
-        (4.0 * r.amplitude_max).min(0.1),
+        (1.9 * r.amplitude_min).min(0.1),
     )
 }
 
 fn coulomb_friction(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
-    // Friction matters when it is comparable to the servo's acceleration demand.
-    let acc = r.amplitude_min * r.omega_min * r.omega_min.max(1.0);
-    one_param(
+    // Friction level F shifts the servo by about F / wn^2: comparable with the smallest
+    // amplitude at F ~ A wn^2.
+    let (wn, _) = servo_params(spec);
+    let f0 = r.amplitude_min * wn * wn;
+    per_axis(
         spec,
         r,
         "coulomb_friction",
         "level",
-        &[0.3 * acc, 3.0 * acc],
+        &[0.01 * f0, 0.1 * f0],
         0.0,
-        50.0,
+        // Beyond A_min wn^2 the smallest sines barely move: a stuck servo, not friction.
+        (r.amplitude_min * wn * wn).min(100.0),
     )
 }
 
 fn acceleration_saturation(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
-    let acc = r.amplitude_max * r.omega_max * r.omega_max;
-    one_param(
+    // The largest acceleration the campaign demands of the linear servo.
+    let (wn, zeta) = servo_params(spec);
+    let peak = |w: f64| {
+        let h = wn * wn / ((wn * wn - w * w).powi(2) + (2.0 * zeta * wn * w).powi(2)).sqrt();
+        w * w * h * r.amplitude_max
+    };
+    let acc = peak(r.omega_max).max(1e-6);
+    per_axis(
         spec,
         r,
         "acceleration_saturation",
         "limit",
-        &[0.3 * acc, 0.7 * acc],
-        1e-3,
-        100.0,
+        &[0.4 * acc, 0.8 * acc],
+        0.02 * acc,
+        2.0 * acc,
     )
 }
 

@@ -4,24 +4,33 @@
 //! Held-out scoring: two folds by frequency parity (records at the 1st, 3rd, ... distinct
 //! frequencies against the 2nd, 4th, ...): each fold's model predicts the other fold's records.
 
-use super::candidates::{apply, core_frees, model_kind, Candidate, DataRange, Free, CATALOGUE};
+use super::candidates::{
+    apply, core_frees, model_kind, Candidate, DataRange, Free, Start, CATALOGUE,
+};
 use super::lm::{minimise, Bounded};
 use super::measure::{aggregate, predict, residuals, score, RecordScore};
 use super::observe::Observation;
 use std::collections::BTreeMap;
 use zmp_models::ModelSpec;
 
-/// Excess error above the noise floor, as a multiple of it, below which the model counts as
+/// Error above the noise floor, as a multiple of it, below which the model counts as
 /// explaining the data.
 pub const EXPLAINED_RATIO: f64 = 1.5;
-/// Fraction of the excess error (above the floor) a candidate must remove to count.
+/// Fraction of the excess squared error (above the floor) a candidate must remove to count.
 pub const MIN_EXPLAINED_FRACTION: f64 = 0.5;
+
+/// Iterations: the own parameters from each start, then jointly with the core, then per fold.
+const ITERS_OWN: usize = 8;
+const ITERS_JOINT: usize = 20;
+const ITERS_FOLD: usize = 8;
 
 /// A fitted model and where it came from.
 #[derive(Debug, Clone)]
 pub struct Fitted {
     pub spec: ModelSpec,
+    /// The candidate's own parameters first, then the core ones.
     pub frees: Vec<Free>,
+    pub own: usize,
     pub theta: Vec<f64>,
     pub std_err: Vec<f64>,
     pub cost: f64,
@@ -31,7 +40,7 @@ pub struct Fitted {
 #[derive(Debug, Clone)]
 pub struct Scored {
     pub effect: String,
-    /// Held-out error and per-record held-out scores (in observation order).
+    /// Held-out error (RMS over records) and per-record held-out scores (observation order).
     pub error: f64,
     pub scores: Vec<RecordScore>,
     /// Fitted on all records.
@@ -41,6 +50,7 @@ pub struct Scored {
 fn fit_from(
     start: &ModelSpec,
     frees: &[Free],
+    own: usize,
     obs: &[&Observation],
     iters: usize,
 ) -> Option<Fitted> {
@@ -58,52 +68,55 @@ fn fit_from(
     let (theta, cost, var) = minimise(&theta0, iters, &mut r)?;
     let mut spec = start.clone();
     apply(&mut spec, frees, &theta);
+    let mut frees = frees.to_vec();
+    for (f, v) in frees.iter_mut().zip(&theta) {
+        f.bounds.value = *v;
+    }
     Some(Fitted {
         spec,
-        frees: frees.to_vec(),
+        frees,
+        own,
         std_err: var.iter().map(|v| v.sqrt()).collect(),
         theta,
         cost,
     })
 }
 
-/// Fits a candidate's starting points on `obs`: its own parameters first, then jointly with the
-/// core parameters from the best start.
-pub fn fit(starts: &[(ModelSpec, Vec<Free>)], obs: &[&Observation]) -> Option<Fitted> {
+/// Fits a candidate on `obs` from each of its starts, then the best further. The core
+/// parameters are fitted with the candidate's own from every start (the model the diagnosis
+/// starts from may have absorbed the effect into them), except for the costly servo effects,
+/// whose own parameters are fitted first with the core fixed.
+pub fn fit(effect: &str, starts: &[Start], obs: &[&Observation]) -> Option<Fitted> {
+    let costly = is_costly(effect);
     let best = starts
         .iter()
         .filter_map(|(s, f)| {
-            if f.is_empty() {
-                Some(Fitted {
-                    spec: s.clone(),
-                    frees: vec![],
-                    theta: vec![],
-                    std_err: vec![],
-                    cost: f64::INFINITY,
-                })
-            } else {
-                fit_from(s, f, obs, 25)
+            let mut frees = f.clone();
+            let own = frees.len();
+            if !costly {
+                frees.extend(core_frees(s, true));
             }
+            if frees.is_empty() {
+                return None;
+            }
+            fit_from(s, &frees, own, obs, ITERS_OWN)
         })
         .min_by(|a, b| a.cost.total_cmp(&b.cost))?;
     let mut frees = best.frees.clone();
-    for (f, v) in frees.iter_mut().zip(&best.theta) {
-        f.bounds.value = *v;
+    if costly {
+        frees.extend(core_frees(&best.spec, true));
     }
-    let own = frees.len();
-    frees.extend(core_frees(&best.spec));
-    let mut joint = fit_from(&best.spec, &frees, obs, 30)?;
-    // Report only the candidate's own parameters first; core after.
-    joint.frees.truncate(frees.len());
-    let _ = own;
-    Some(joint)
+    fit_from(&best.spec, &frees, best.own, obs, ITERS_JOINT)
+}
+
+/// Candidates whose describing functions come from simulation.
+pub fn is_costly(effect: &str) -> bool {
+    matches!(effect, "coulomb_friction" | "acceleration_saturation")
 }
 
 /// The two frequency-parity folds: `fold[k]` is true for records in the second fold.
 pub fn folds(obs: &[&Observation]) -> Vec<bool> {
-    let mut omegas: Vec<f64> = obs.iter().map(|o| o.omega).collect();
-    omegas.sort_by(f64::total_cmp);
-    omegas.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * b.abs());
+    let omegas = distinct_omegas(obs);
     obs.iter()
         .map(|o| {
             let k = omegas
@@ -115,12 +128,17 @@ pub fn folds(obs: &[&Observation]) -> Vec<bool> {
         .collect()
 }
 
-/// Held-out scores of a candidate, and its fit on all records.
-pub fn cross_validate(
-    name: &str,
-    starts: &[(ModelSpec, Vec<Free>)],
-    obs: &[&Observation],
-) -> Option<Scored> {
+/// The distinct excitation frequencies, ascending.
+pub fn distinct_omegas(obs: &[&Observation]) -> Vec<f64> {
+    let mut omegas: Vec<f64> = obs.iter().map(|o| o.omega).collect();
+    omegas.sort_by(f64::total_cmp);
+    omegas.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * b.abs());
+    omegas
+}
+
+/// Held-out scores of a model fitted on all records: each fold is refitted from it (same
+/// free parameters) and predicts the other fold.
+pub fn cross_validate(name: &str, fitted: Fitted, obs: &[&Observation]) -> Scored {
     let fold = folds(obs);
     let mut scores = vec![
         RecordScore {
@@ -140,11 +158,22 @@ pub fn cross_validate(
         if train.is_empty() || test_idx.is_empty() {
             continue;
         }
-        let fitted = fit(starts, &train)?;
+        let refit = if fitted.frees.is_empty() {
+            None
+        } else {
+            let iters = if is_costly(name) {
+                ITERS_FOLD / 2
+            } else {
+                ITERS_FOLD
+            };
+            fit_from(&fitted.spec, &fitted.frees, fitted.own, &train, iters)
+        };
+        let spec = refit.as_ref().map_or(&fitted.spec, |f| &f.spec);
         let test: Vec<&Observation> = test_idx.iter().map(|&k| obs[k]).collect();
-        let p = predict(&fitted.spec, &test).ok()?;
-        for ((&k, o), pr) in test_idx.iter().zip(&test).zip(&p) {
-            scores[k] = score(o, pr);
+        if let Ok(p) = predict(spec, &test) {
+            for ((&k, o), pr) in test_idx.iter().zip(&test).zip(&p) {
+                scores[k] = score(o, pr);
+            }
         }
     }
     let valid: Vec<RecordScore> = scores
@@ -152,14 +181,80 @@ pub fn cross_validate(
         .copied()
         .filter(|s| s.error2.is_finite())
         .collect();
-    let (error, _) = aggregate(&valid);
-    let fitted = fit(starts, obs)?;
-    Some(Scored {
+    let error = if valid.len() == scores.len() {
+        aggregate(&valid).0
+    } else {
+        f64::INFINITY
+    };
+    Scored {
         effect: name.to_string(),
         error,
         scores,
         fitted,
-    })
+    }
+}
+
+/// Fits and scores one candidate on top of `base`.
+pub fn score_candidate(c: &Candidate, base: &ModelSpec, obs: &[&Observation]) -> Option<Scored> {
+    let range = DataRange::of(obs);
+    let starts = (c.prepare)(base, &range);
+    if starts.is_empty() {
+        return None;
+    }
+    let fitted = fit(c.effect, &starts, obs)?;
+    Some(cross_validate(c.effect, fitted, obs))
+}
+
+/// Candidates of the catalogue not yet in `base` (and not in `exclude`), scored on top of it,
+/// on up to `threads` threads, best first. `done` is called after each candidate.
+pub fn score_candidates(
+    base: &ModelSpec,
+    obs: &[&Observation],
+    exclude: &[String],
+    threads: usize,
+    done: &(dyn Fn(&str) + Sync),
+) -> Vec<Scored> {
+    let cands: Vec<&Candidate> = CATALOGUE
+        .iter()
+        .filter(|c| !exclude.iter().any(|e| e == c.effect))
+        .filter(|c| c.effect == "cross_coupling" || !base.has(model_kind(c.effect)))
+        .collect();
+    // The slow (servo) candidates first so the threads finish together.
+    let mut order: Vec<usize> = (0..cands.len()).collect();
+    order.sort_by_key(|&k| !is_costly(cands[k].effect));
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results: Vec<Vec<Scored>> = std::thread::scope(|s| {
+        let handles: Vec<_> = (0..threads.clamp(1, cands.len().max(1)))
+            .map(|_| {
+                s.spawn(|| {
+                    let mut mine = Vec::new();
+                    loop {
+                        let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(&i) = order.get(k) else { break };
+                        if let Some(sc) = score_candidate(cands[i], base, obs) {
+                            mine.push(sc);
+                        }
+                        done(cands[i].effect);
+                    }
+                    mine
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+            .collect()
+    });
+    let mut out: Vec<Scored> = results.into_iter().flatten().collect();
+    out.sort_by(|a, b| a.error.total_cmp(&b.error));
+    out
+}
+
+/// The refit-only control: the model's own structure, core parameters refitted.
+pub fn control(base: &ModelSpec, obs: &[&Observation]) -> Option<Scored> {
+    let frees = core_frees(base, true);
+    let fitted = fit_from(base, &frees, 0, obs, ITERS_JOINT)?;
+    Some(cross_validate("parameter_refit", fitted, obs))
 }
 
 /// Scores of `spec` as it is on `obs`.
@@ -171,53 +266,29 @@ pub fn evaluate(
     Ok(obs.iter().zip(&p).map(|(o, pr)| score(o, pr)).collect())
 }
 
-/// Candidates of the catalogue not yet in `spec`, scored on top of it.
-pub fn score_candidates(base: &ModelSpec, obs: &[&Observation], exclude: &[String]) -> Vec<Scored> {
-    let range = DataRange::of(obs);
-    let cands: Vec<&Candidate> = CATALOGUE
+/// Parameters of a fitted candidate's own effect, by dotted name, with standard errors.
+pub fn own_parameters(s: &Scored) -> BTreeMap<String, (f64, f64)> {
+    let f = &s.fitted;
+    f.frees
         .iter()
-        .filter(|c| !exclude.iter().any(|e| e == c.effect))
-        .filter(|c| c.effect == "cross_coupling" || !base.has(model_kind(c.effect)))
-        .collect();
-    let results: Vec<Option<Scored>> = std::thread::scope(|s| {
-        let handles: Vec<_> = cands
-            .iter()
-            .map(|c| {
-                let range = &range;
-                s.spawn(move || {
-                    let starts = (c.prepare)(base, range);
-                    if starts.is_empty() {
-                        return None;
-                    }
-                    cross_validate(c.effect, &starts, obs)
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().ok().flatten())
-            .collect()
-    });
-    let mut out: Vec<Scored> = results.into_iter().flatten().collect();
-    out.sort_by(|a, b| a.error.total_cmp(&b.error));
-    out
-}
-
-/// The refit-only control: the model's own structure, core parameters refitted.
-pub fn control(base: &ModelSpec, obs: &[&Observation]) -> Option<Scored> {
-    cross_validate("parameter_refit", &[(base.clone(), vec![])], obs)
-}
-
-/// Parameters of a fitted candidate's own effect, by dotted name.
-pub fn own_parameters(s: &Scored) -> BTreeMap<String, f64> {
-    let kind = model_kind(&s.effect);
-    s.fitted
-        .frees
-        .iter()
-        .zip(&s.fitted.theta)
-        .filter(|(f, _)| f.kind == kind && (kind != "pendulum" || s.effect == "cross_coupling"))
-        .map(|(f, v)| (f.name(), *v))
+        .zip(&f.theta)
+        .zip(&f.std_err)
+        .take(f.own)
+        .map(|((fr, v), e)| (fr.name(), (*v, *e)))
         .collect()
+}
+
+/// The fitted model without the candidate's effect (its other parameters as fitted): what the
+/// effect's signature is measured against.
+pub fn without_effect(s: &Scored) -> ModelSpec {
+    let mut spec = s.fitted.spec.clone();
+    if s.effect == "cross_coupling" {
+        let zeros = vec![0.0; s.fitted.own];
+        apply(&mut spec, &s.fitted.frees[..s.fitted.own], &zeros);
+    } else {
+        spec.remove(model_kind(&s.effect));
+    }
+    spec
 }
 
 /// Whether `candidate` removes enough of the excess error of `reference` above `floor`.

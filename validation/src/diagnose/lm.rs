@@ -12,7 +12,7 @@ pub struct Bounded {
 
 /// Minimises `|r(theta)|^2`. `r` returns `None` for parameters it cannot evaluate (treated as
 /// a failed step). Returns the best parameters, the final cost and the Gauss-Newton covariance
-/// diagonal `(J^T J)^{-1}` (scaled by the reduced chi-square when it exceeds one).
+/// diagonal `(J^T J)^{-1}` scaled by the residual variance.
 pub fn minimise(
     theta0: &[Bounded],
     max_iter: usize,
@@ -69,7 +69,7 @@ pub fn minimise(
                     cost = ct;
                     lambda = (lambda * 0.3).max(1e-9);
                     improved = true;
-                    if rel < 1e-9 {
+                    if rel < 1e-5 {
                         return Some(finish(theta, cost, &jtj, res.len()));
                     }
                     break;
@@ -86,7 +86,8 @@ pub fn minimise(
 
 fn finish(theta: Vec<f64>, cost: f64, jtj: &DMatrix<f64>, m: usize) -> (Vec<f64>, f64, Vec<f64>) {
     let n = theta.len();
-    let chi2 = (cost / (m as f64 - n as f64).max(1.0)).max(1.0);
+    // Unweighted residuals: the residual variance scales the covariance.
+    let chi2 = cost / (m as f64 - n as f64).max(1.0);
     let var = match jtj.clone().try_inverse() {
         Some(inv) => (0..n).map(|k| inv[(k, k)].abs() * chi2).collect(),
         None => vec![f64::INFINITY; n],

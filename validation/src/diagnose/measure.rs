@@ -38,8 +38,59 @@ impl RecordScore {
     }
 }
 
-/// Predictions of `spec` for every observation.
+/// Predictions of `spec` for every observation. Models with nonlinear effects (describing
+/// functions from simulation) are evaluated on two threads, split by frequency so that each
+/// describing function is computed once.
 pub fn predict(
+    spec: &ModelSpec,
+    obs: &[&Observation],
+) -> Result<Vec<Prediction>, zmp_models::ModelError> {
+    let nonlinear = spec.effects.iter().any(|e| !e.info.linear);
+    if !nonlinear || obs.len() < 8 {
+        return predict_serial(spec, obs);
+    }
+    let omegas = {
+        let mut w: Vec<f64> = obs.iter().map(|o| o.omega).collect();
+        w.sort_by(f64::total_cmp);
+        w.dedup();
+        w
+    };
+    // Alternate frequencies between the two halves: the low ones cost the most.
+    let half = |o: &Observation| omegas.iter().position(|w| *w == o.omega).unwrap_or(0) % 2;
+    let parts: [Vec<usize>; 2] = [
+        (0..obs.len()).filter(|&k| half(obs[k]) == 0).collect(),
+        (0..obs.len()).filter(|&k| half(obs[k]) == 1).collect(),
+    ];
+    let results = std::thread::scope(|s| {
+        let hs: Vec<_> = parts
+            .iter()
+            .map(|ix| {
+                s.spawn(move || {
+                    let mine: Vec<&Observation> = ix.iter().map(|&k| obs[k]).collect();
+                    predict_serial(spec, &mine)
+                })
+            })
+            .collect();
+        hs.into_iter()
+            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+            .collect::<Vec<_>>()
+    });
+    let mut out = vec![
+        Prediction {
+            g: [Complex64::new(0.0, 0.0); 2],
+            slope: [0.0; 2]
+        };
+        obs.len()
+    ];
+    for (ix, r) in parts.iter().zip(results) {
+        for (&k, p) in ix.iter().zip(r?) {
+            out[k] = p;
+        }
+    }
+    Ok(out)
+}
+
+fn predict_serial(
     spec: &ModelSpec,
     obs: &[&Observation],
 ) -> Result<Vec<Prediction>, zmp_models::ModelError> {
@@ -62,7 +113,7 @@ pub fn predict(
         if nonlinear {
             for (i, gi) in g.iter_mut().enumerate() {
                 let ch = Channel::new(Axis::from_index(i).expect("0 or 1"), o.excited);
-                *gi = plant.describing_response(ch, o.omega, o.amplitude());
+                *gi = plant.describing_response(ch, o.omega, o.nominal_amplitude);
             }
         } else {
             let fr = plant.frequency_response(o.omega);
@@ -103,14 +154,22 @@ pub fn aggregate(scores: &[RecordScore]) -> (f64, f64) {
     (e.sqrt(), f.sqrt())
 }
 
-/// Weighted residuals for fitting: real and imaginary first-harmonic misfit and trend misfit,
-/// each over its noise standard deviation.
+/// Residuals for fitting: the record's error measure split into its parts (real and imaginary
+/// first-harmonic misfit and trend misfit of each output, over the record's normalisation), so
+/// that the least-squares cost is exactly the sum over records of the squared error measure
+/// the diagnosis scores with.
 pub fn residuals(o: &Observation, p: &Prediction, out: &mut Vec<f64>) {
+    let t = o.duration();
+    let den: f64 = (0..2)
+        .map(|i| 0.5 * o.y1[i].norm_sqr())
+        .sum::<f64>()
+        .max(1e-300);
+    let k1 = (0.5 / den).sqrt();
+    let k2 = (t * t / (12.0 * den)).sqrt();
     for i in 0..2 {
         let d = o.y1[i] - p.g[i] * o.u1;
-        let s = o.y1_var[i].sqrt().max(1e-12);
-        out.push(d.re / s);
-        out.push(d.im / s);
-        out.push((o.slope[i] - p.slope[i]) / o.slope_var[i].sqrt().max(1e-15));
+        out.push(d.re * k1);
+        out.push(d.im * k1);
+        out.push((o.slope[i] - p.slope[i]) * k2);
     }
 }

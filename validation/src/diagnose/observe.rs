@@ -22,6 +22,8 @@ pub struct Observation {
     /// Excitation frequency, rad/s.
     pub omega: f64,
     pub operating_point: [f64; 2],
+    /// Reference amplitude the campaign commands, m (the describing functions' argument).
+    pub nominal_amplitude: f64,
     /// Window used, s.
     pub t0: f64,
     pub t1: f64,
@@ -131,6 +133,7 @@ pub fn observe(rec: &Record, index: usize, steady_start_s: f64, omega: f64) -> O
         excited: rec.meta.excited,
         omega,
         operating_point: rec.meta.operating_point,
+        nominal_amplitude: rec.meta.amplitude,
         t0: t[0],
         t1: t[t.len() - 1],
         u1: Complex64::new(u.coef[2], u.coef[3]),

@@ -1,0 +1,571 @@
+//! The diagnosis of a campaign against a model: observations, the baseline error and its noise
+//! floor, where the model fails, forward selection of catalogued effects on held-out records,
+//! the verdict and the evidence.
+
+use super::candidates::{model_kind, CATALOGUE};
+use super::cells::{cells, channel_summary, Cell};
+use super::engine::{
+    control, distinct_omegas, evaluate, own_parameters, score_candidates, significant,
+    without_effect, Scored, EXPLAINED_RATIO,
+};
+use super::evidence::sentence;
+use super::measure::{aggregate, predict, Prediction};
+use super::observe::{observe, Observation};
+use crate::campaign::Campaign;
+use crate::identify::{analyse_records, reason, IdentifyOptions};
+use serde::Serialize;
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
+use zmp_models::{Axis, Binding, Channel, ModelSpec};
+
+/// Format name of the JSON report.
+pub const DIAGNOSIS_FORMAT: &str = "zmp-diagnosis/1";
+
+/// Effects added at most by forward selection.
+pub const MAX_EFFECTS: usize = 3;
+
+#[derive(Debug, thiserror::Error)]
+pub enum DiagnoseError {
+    #[error("{campaign}: {message}")]
+    Campaign { campaign: String, message: String },
+    #[error("{model}: {message}")]
+    Model { model: String, message: String },
+}
+
+/// Options of a diagnosis.
+#[derive(Debug, Clone)]
+pub struct DiagnoseOptions {
+    /// Shown in the report as given.
+    pub campaign_path: String,
+    pub model_path: String,
+    pub threads: usize,
+    pub max_effects: usize,
+}
+
+impl Default for DiagnoseOptions {
+    fn default() -> Self {
+        DiagnoseOptions {
+            campaign_path: "campaign".into(),
+            model_path: "model.toml".into(),
+            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            max_effects: MAX_EFFECTS,
+        }
+    }
+}
+
+/// One ranked finding.
+#[derive(Debug, Clone, Serialize)]
+pub struct Finding {
+    pub effect: String,
+    pub channels: Vec<String>,
+    /// Fitted parameters of the effect, dotted names, and their standard errors.
+    pub parameters: BTreeMap<String, f64>,
+    pub std_errors: BTreeMap<String, f64>,
+    pub error_before: f64,
+    pub error_after: f64,
+    pub held_out: bool,
+    pub significant: bool,
+    pub evidence: String,
+    /// Where the error remains after this finding (significant cells, worst first).
+    #[serde(rename = "where")]
+    pub remaining: Vec<Cell>,
+}
+
+/// The whole diagnosis.
+#[derive(Debug, Clone)]
+pub struct Diagnosis {
+    pub campaign: String,
+    pub model: String,
+    pub records: usize,
+    pub skipped: Vec<(usize, String)>,
+    pub noise_floor: f64,
+    pub baseline_error: f64,
+    /// Held-out error of the model's own structure with its core parameters refitted.
+    pub refit_error: f64,
+    pub verdict: String,
+    pub findings: Vec<Finding>,
+    /// Effects selected in order and the held-out error after each.
+    pub selected: Vec<(String, f64)>,
+    /// The model with the selected effects, fitted on all records.
+    pub final_model: ModelSpec,
+    pub final_error: f64,
+    /// Cells of the starting model, worst first.
+    pub cells: Vec<Cell>,
+    /// `(channel, error, floor)` of the starting model.
+    pub channels: Vec<(String, f64, f64)>,
+    pub observations: Vec<Observation>,
+    pub base_predictions: Vec<Prediction>,
+    pub final_predictions: Vec<Prediction>,
+    /// Every candidate of the first round with its held-out error (what was tried).
+    pub tried: Vec<(String, f64)>,
+}
+
+/// Steady-state observations of every usable record (the identification's transient
+/// detection decides where the steady state starts), and the records left out with why.
+pub fn observe_campaign(
+    campaign: &Campaign,
+    threads: usize,
+) -> (Vec<Observation>, Vec<(usize, String)>) {
+    let opts = IdentifyOptions {
+        threads: Some(threads),
+        ..IdentifyOptions::default()
+    };
+    let fits = analyse_records(campaign, &opts, &|_| {});
+    let mut obs = Vec::new();
+    let mut skipped = Vec::new();
+    for f in fits {
+        match &f.excluded {
+            Some(r) if r != reason::SATURATED => skipped.push((f.index, r.clone())),
+            _ => {
+                let rec = &campaign.records[f.index];
+                match observe(rec, f.index, f.steady_start_s, rec.meta.omega) {
+                    Some(o) => obs.push(o),
+                    None => skipped.push((f.index, reason::NO_STEADY.to_string())),
+                }
+            }
+        }
+    }
+    (obs, skipped)
+}
+
+/// Checks that the model describes the campaign's channels.
+pub fn check_inputs(
+    obs: &[&Observation],
+    model: &ModelSpec,
+    opts: &DiagnoseOptions,
+) -> Result<(), DiagnoseError> {
+    let camp = |message: String| DiagnoseError::Campaign {
+        campaign: opts.campaign_path.clone(),
+        message,
+    };
+    if obs.is_empty() {
+        return Err(camp("no usable record".into()));
+    }
+    for axis in Axis::BOTH {
+        let mine: Vec<&Observation> = obs.iter().copied().filter(|o| o.excited == axis).collect();
+        if mine.is_empty() {
+            continue;
+        }
+        let omegas = distinct_omegas(&mine);
+        if omegas.len() < 3 {
+            return Err(camp(format!(
+                "the records exciting {axis} cover {} frequenc{} ({}): the diagnosis needs at \
+                 least 3 to fit on some and score on the others",
+                omegas.len(),
+                if omegas.len() == 1 { "y" } else { "ies" },
+                omegas
+                    .iter()
+                    .map(|w| format!("{w} rad/s"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
+        let ch = Channel::new(axis, axis);
+        let a = model
+            .value("pendulum", Binding::Global, &format!("a{}", ch.suffix()))
+            .unwrap_or(0.0);
+        let b = model
+            .value("pendulum", Binding::Global, &format!("b{}", ch.suffix()))
+            .unwrap_or(0.0);
+        if a == 0.0 && b == 0.0 {
+            return Err(DiagnoseError::Model {
+                model: opts.model_path.clone(),
+                message: format!(
+                    "pendulum.a{0} and pendulum.b{0} are both zero: the model has no {1} \
+                     channel, but the campaign excites {axis}",
+                    ch.suffix(),
+                    ch.name()
+                ),
+            });
+        }
+    }
+    // The model must be of the right order of magnitude on the diagonal channels: a factor
+    // of ten (in median) means another robot, other units or swapped channels.
+    let preds = predict(model, obs).map_err(|e| DiagnoseError::Model {
+        model: opts.model_path.clone(),
+        message: e.to_string(),
+    })?;
+    for axis in Axis::BOTH {
+        let j = axis.index();
+        let mut q: Vec<f64> = obs
+            .iter()
+            .zip(&preds)
+            .filter(|(o, _)| o.excited == axis)
+            .map(|(o, p)| o.g(j).norm() / p.g[j].norm().max(1e-300))
+            .collect();
+        if q.is_empty() {
+            continue;
+        }
+        q.sort_by(f64::total_cmp);
+        let m = q[q.len() / 2];
+        if !(0.1..=10.0).contains(&m) {
+            let ch = Channel::new(axis, axis);
+            return Err(DiagnoseError::Model {
+                model: opts.model_path.clone(),
+                message: format!(
+                    "the measured {0} is {m:.3} times the model's (median over records): the \
+                     model does not describe this campaign's channels (other robot, units or \
+                     swapped axes?)",
+                    ch.name()
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Channels an effect changed: those whose error fell by at least half of the excess.
+fn channels_changed(
+    obs: &[&Observation],
+    before: &[Prediction],
+    after: &[Prediction],
+    effect: &str,
+    spec: &ModelSpec,
+) -> Vec<String> {
+    let b = channel_summary(obs, before);
+    let a = channel_summary(obs, after);
+    let mut out: Vec<String> = b
+        .iter()
+        .zip(&a)
+        .filter(|(x, y)| {
+            let excess = x.1 * x.1 - x.2 * x.2;
+            excess > 0.0 && x.1 > EXPLAINED_RATIO * x.2 && x.1 * x.1 - y.1 * y.1 > 0.5 * excess
+        })
+        .map(|(x, _)| x.0.clone())
+        .collect();
+    if out.is_empty() {
+        // From where the effect sits.
+        let kind = model_kind(effect);
+        for e in spec.effects.iter().filter(|e| e.info.kind == kind) {
+            if let Binding::Axis(ax) = e.binding {
+                for ch in Channel::ALL {
+                    let hit = match e.info.site {
+                        zmp_models::Site::Sensor => ch.output == ax,
+                        _ => ch.input == ax,
+                    };
+                    if hit && !out.iter().any(|c| c == ch.name()) {
+                        out.push(ch.name().to_string());
+                    }
+                }
+            }
+        }
+        out.sort();
+    }
+    out
+}
+
+fn significant_cells(c: Vec<Cell>) -> Vec<Cell> {
+    c.into_iter().filter(|c| c.significant).take(8).collect()
+}
+
+/// Runs the diagnosis. `progress(done, total, what)` reports candidates as they finish.
+pub fn diagnose(
+    campaign: &Campaign,
+    model: &ModelSpec,
+    opts: &DiagnoseOptions,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<Diagnosis, DiagnoseError> {
+    let (observations, skipped) = observe_campaign(campaign, opts.threads);
+    let obs: Vec<&Observation> = observations.iter().collect();
+    check_inputs(&obs, model, opts)?;
+    let model_err = |e: zmp_models::ModelError| DiagnoseError::Model {
+        model: opts.model_path.clone(),
+        message: e.to_string(),
+    };
+    let base_scores = evaluate(model, &obs).map_err(model_err)?;
+    let (baseline, floor) = aggregate(&base_scores);
+    let base_predictions = predict(model, &obs).map_err(model_err)?;
+    let base_cells = cells(&obs, &base_predictions);
+    let channels = channel_summary(&obs, &base_predictions);
+    progress("baseline");
+
+    let ctrl = control(model, &obs);
+    progress("parameter_refit");
+    let refit_error = ctrl.as_ref().map_or(f64::INFINITY, |c| c.error);
+    let any_cell = base_cells.iter().any(|c| c.significant);
+    let explained = baseline <= EXPLAINED_RATIO * floor && !any_cell;
+
+    let mut findings = Vec::new();
+    let mut selected: Vec<(String, f64)> = Vec::new();
+    let mut tried = Vec::new();
+    let mut current = model.clone();
+    let mut current_preds = base_predictions.clone();
+    let _ = &current_preds;
+    let mut final_error = baseline;
+    if !explained {
+        // The reference a candidate must beat: the model as it is, or refitted if that is better.
+        let (mut reference, mut ref_spec) = match &ctrl {
+            Some(c) if c.error < baseline => (c.error, c.fitted.spec.clone()),
+            _ => (baseline, model.clone()),
+        };
+        let mut exclude: Vec<String> = Vec::new();
+        for round in 0..opts.max_effects {
+            if reference <= EXPLAINED_RATIO * floor {
+                break;
+            }
+            let scored = score_candidates(&ref_spec, &obs, &exclude, opts.threads, progress);
+            if round == 0 {
+                tried = scored.iter().map(|s| (s.effect.clone(), s.error)).collect();
+            }
+            let Some(best) = scored.first().cloned() else {
+                break;
+            };
+            let reference_before = reference;
+            if !significant(reference, best.error, floor) {
+                if round == 0 {
+                    for s in scored.iter().take(4) {
+                        findings.push(finding(&obs, s, reference, floor, false));
+                    }
+                }
+                break;
+            }
+            let f = finding(&obs, &best, reference, floor, true);
+            findings.push(f);
+            selected.push((best.effect.clone(), best.error));
+            exclude.push(best.effect.clone());
+            reference = best.error;
+            ref_spec = best.fitted.spec.clone();
+            current = best.fitted.spec.clone();
+            current_preds = predict(&current, &obs).map_err(model_err)?;
+            final_error = best.error;
+            if round == 0 {
+                // The runners-up, for the record.
+                for s in scored.iter().skip(1).take(3) {
+                    findings.push(finding(&obs, s, reference_before, floor, false));
+                }
+            }
+        }
+    }
+    let verdict = if explained {
+        "none".to_string()
+    } else if let Some((e, _)) = selected.first() {
+        e.clone()
+    } else if ctrl.as_ref().is_some_and(|c| {
+        significant(baseline, c.error, floor) && c.error <= EXPLAINED_RATIO * floor
+    }) {
+        "parameter_refit".to_string()
+    } else {
+        "unexplained".to_string()
+    };
+    if verdict == "parameter_refit" {
+        if let Some(c) = &ctrl {
+            current = c.fitted.spec.clone();
+            current_preds = predict(&current, &obs).map_err(model_err)?;
+            final_error = c.error;
+        }
+    }
+    // Findings ranked: the selected effects first (in selection order), then the others.
+    findings.sort_by(|a, b| b.significant.cmp(&a.significant));
+    if verdict == "unexplained" {
+        let where_ = significant_cells(base_cells.clone());
+        let mut text = format!(
+            "an error of {:.1}x the noise floor remains that no catalogued effect removes \
+             (best: {})",
+            baseline / floor,
+            tried.first().map_or("none fitted".to_string(), |t| format!(
+                "{} at {:.1}x",
+                t.0,
+                t.1 / floor
+            ))
+        );
+        if let Some(c) = where_.first() {
+            text.push_str(&format!(
+                "; worst in {} at {:.2}-{:.2} rad/s, {:.1} mm, operating point ({:.3}, {:.3}) m: \
+                 {:.1}x its floor",
+                c.channel,
+                c.band_rad_s[0],
+                c.band_rad_s[1],
+                c.amplitude_m * 1e3,
+                c.operating_point_m[0],
+                c.operating_point_m[1],
+                c.ratio
+            ));
+        }
+        let mut chans: Vec<String> = where_.iter().map(|c| c.channel.clone()).collect();
+        chans.sort();
+        chans.dedup();
+        findings.insert(
+            0,
+            Finding {
+                effect: "unexplained".into(),
+                channels: chans,
+                parameters: BTreeMap::new(),
+                std_errors: BTreeMap::new(),
+                error_before: baseline,
+                error_after: baseline,
+                held_out: false,
+                significant: true,
+                evidence: text,
+                remaining: where_,
+            },
+        );
+    }
+    if verdict == "parameter_refit" {
+        findings.insert(
+            0,
+            Finding {
+                effect: "parameter_refit".into(),
+                channels: channels.iter().map(|c| c.0.clone()).collect(),
+                parameters: BTreeMap::new(),
+                std_errors: BTreeMap::new(),
+                error_before: baseline,
+                error_after: refit_error,
+                held_out: true,
+                significant: true,
+                evidence: format!(
+                    "the model's own structure with its pendulum and bandwidth refitted \
+                     explains the data ({:.1}x -> {:.1}x the noise floor on held-out records): \
+                     identify the campaign again rather than add an effect",
+                    baseline / floor,
+                    refit_error / floor
+                ),
+                remaining: Vec::new(),
+            },
+        );
+    }
+    let records = obs.len();
+    Ok(Diagnosis {
+        campaign: opts.campaign_path.clone(),
+        model: opts.model_path.clone(),
+        records,
+        skipped,
+        noise_floor: floor,
+        baseline_error: baseline,
+        refit_error,
+        verdict,
+        findings,
+        selected,
+        final_model: current,
+        final_error,
+        cells: base_cells,
+        channels,
+        base_predictions,
+        final_predictions: current_preds,
+        observations,
+        tried,
+    })
+}
+
+fn finding(
+    obs: &[&Observation],
+    s: &Scored,
+    reference: f64,
+    floor: f64,
+    selected: bool,
+) -> Finding {
+    let params = own_parameters(s);
+    let before = &predict(&without_effect(s), obs).unwrap_or_default();
+    let after = predict(&s.fitted.spec, obs).unwrap_or_else(|_| before.to_vec());
+    let evidence = sentence(&s.effect, obs, before, &params, reference, s.error, floor);
+    Finding {
+        effect: s.effect.clone(),
+        channels: channels_changed(obs, before, &after, &s.effect, &s.fitted.spec),
+        parameters: params.iter().map(|(k, v)| (k.clone(), v.0)).collect(),
+        std_errors: params.iter().map(|(k, v)| (k.clone(), v.1)).collect(),
+        error_before: reference,
+        error_after: s.error,
+        held_out: true,
+        significant: selected,
+        evidence,
+        remaining: significant_cells(cells(obs, &after)),
+    }
+}
+
+impl Diagnosis {
+    /// The `zmp-diagnosis/1` JSON document.
+    pub fn to_json(&self) -> Value {
+        json!({
+            "format": DIAGNOSIS_FORMAT,
+            "campaign": self.campaign,
+            "model": self.model,
+            "noise_floor": self.noise_floor,
+            "baseline_error": self.baseline_error,
+            "verdict": self.verdict,
+            "findings": self.findings,
+            "error_measure": "rms over records of the steady-state NRMSE (first harmonic and trend of both ZMP outputs, over the measured first harmonic's RMS)",
+            "records": self.records,
+            "skipped": self.skipped.iter().map(|(k, r)| json!({"record": k, "reason": r})).collect::<Vec<_>>(),
+            "refit_error": self.refit_error,
+            "final_error": self.final_error,
+            "selected": self.selected.iter().map(|(e, x)| json!({"effect": e, "error_after": x})).collect::<Vec<_>>(),
+            "tried": self.tried.iter().map(|(e, x)| json!({"effect": e, "held_out_error": x})).collect::<Vec<_>>(),
+            "where_it_fails": self.cells.iter().filter(|c| c.significant).take(12).collect::<Vec<_>>(),
+            "catalogue": CATALOGUE.iter().map(|c| c.effect).collect::<Vec<_>>(),
+        })
+    }
+
+    /// The same in words.
+    pub fn to_text(&self) -> String {
+        let mut s = String::new();
+        let f = self.noise_floor;
+        s.push_str(&format!(
+            "Diagnosis of {} against {} ({} records{})\n",
+            self.campaign,
+            self.model,
+            self.records,
+            if self.skipped.is_empty() {
+                String::new()
+            } else {
+                format!(", {} left out", self.skipped.len())
+            }
+        ));
+        s.push_str(&format!(
+            "  error {:.4} ({:.1}x the noise floor {:.4}); with the pendulum and bandwidth refitted: {:.4} (held-out)\n",
+            self.baseline_error,
+            self.baseline_error / f,
+            f,
+            self.refit_error
+        ));
+        let verdict = match self.verdict.as_str() {
+            "none" => "none: the model explains the data to the noise floor".to_string(),
+            "unexplained" => {
+                "unexplained: a significant error remains that no catalogued effect removes"
+                    .to_string()
+            }
+            "parameter_refit" => {
+                "parameter_refit: the structure is right, the parameters are off".to_string()
+            }
+            e => format!("{e} is missing from the model"),
+        };
+        s.push_str(&format!("Verdict: {verdict}\n"));
+        for (k, fd) in self.findings.iter().enumerate() {
+            s.push_str(&format!(
+                "{}. {}{} [{}]: error {:.4} -> {:.4}{}\n     {}\n",
+                k + 1,
+                fd.effect,
+                if fd.significant {
+                    ""
+                } else {
+                    " (not significant)"
+                },
+                fd.channels.join(", "),
+                fd.error_before,
+                fd.error_after,
+                if fd.held_out { " (held-out)" } else { "" },
+                fd.evidence
+            ));
+        }
+        let bad: Vec<&Cell> = self
+            .cells
+            .iter()
+            .filter(|c| c.significant)
+            .take(6)
+            .collect();
+        if !bad.is_empty() {
+            s.push_str("Where the starting model fails (error / noise floor):\n");
+            for c in bad {
+                s.push_str(&format!(
+                    "  {} {:>5.2}-{:<5.2} rad/s  {:>4.1} mm  op ({:+.3}, {:+.3}) m  {:>5.1}x\n",
+                    c.channel,
+                    c.band_rad_s[0],
+                    c.band_rad_s[1],
+                    c.amplitude_m * 1e3,
+                    c.operating_point_m[0],
+                    c.operating_point_m[1],
+                    c.ratio
+                ));
+            }
+        }
+        s
+    }
+}
