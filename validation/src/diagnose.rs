@@ -3,6 +3,7 @@
 //! held-out records; effects are added forward while they remove a significant part of the
 //! error.
 
+pub mod augment;
 pub mod candidates;
 pub mod cells;
 pub mod engine;
@@ -10,6 +11,7 @@ pub mod evidence;
 pub mod lm;
 pub mod measure;
 pub mod observe;
+pub mod report;
 pub mod run;
 
 pub use run::{diagnose, DiagnoseError, DiagnoseOptions, Diagnosis, Finding, DIAGNOSIS_FORMAT};

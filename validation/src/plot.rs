@@ -333,6 +333,8 @@ pub struct TimePanel {
     pub series: Vec<TimeSeries>,
     /// Vertical markers: (time, label).
     pub markers: Vec<(f64, String)>,
+    /// Label of the x axis (default `t (s)`).
+    pub x_label: Option<String>,
 }
 
 /// Stacked time panels in one SVG file.
@@ -360,7 +362,7 @@ pub fn time_svg(path: &Path, panels: &[TimePanel], overwrite: bool) -> Result<()
                 .map_err(e)?;
             chart
                 .configure_mesh()
-                .x_desc("t (s)")
+                .x_desc(p.x_label.as_deref().unwrap_or("t (s)"))
                 .y_desc(p.y_label.as_str())
                 .draw()
                 .map_err(e)?;
@@ -463,8 +465,8 @@ pub fn bars_svg(
         chart
             .draw_series(bars.iter().enumerate().map(|(i, b)| {
                 Text::new(
-                    format!("{:.4}", b.1),
-                    (i as f64 + 0.2, b.1 + 0.02 * top),
+                    format!("{}: {:.4}", b.0, b.1),
+                    (i as f64 + 0.17, b.1 + 0.03 * top),
                     ("sans-serif", 12),
                 )
             }))
@@ -538,6 +540,7 @@ mod tests {
                 style: Style::Line,
             }],
             markers: vec![(1.0, "load".into())],
+            x_label: None,
         };
         time_svg(&d.path().join("t.svg"), &[tp], false).unwrap();
         bars_svg(

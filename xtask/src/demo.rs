@@ -137,18 +137,21 @@ pub fn closed_loop_plot(spec: &ModelSpec, path: &Path) -> Result<StepMetrics> {
                 TimeSeries { label: "measured ZMP".into(), t: t.clone(), y: col(&|k| tr.zmp[k][0]), color: PALETTE[0], style: Style::Line },
             ],
             markers: vec![(exp.load_time, "4 kg load".into())],
+            x_label: None,
         },
         TimePanel {
             title: "ZMP error (seed fig. 19)".into(),
             y_label: "error (m)".into(),
             series: vec![TimeSeries { label: "zmp_ref - zmp".into(), t: t.clone(), y: col(&|k| tr.zmp_ref[k][0] - tr.zmp[k][0]), color: PALETTE[1], style: Style::Line }],
             markers: vec![],
+            x_label: None,
         },
         TimePanel {
             title: "Trunk motion (seed fig. 20)".into(),
             y_label: "theta (rad)".into(),
             series: vec![TimeSeries { label: "trunk angle, lateral".into(), t: t.clone(), y: col(&|k| tr.theta[k][0]), color: PALETTE[2], style: Style::Line }],
             markers: vec![],
+            x_label: None,
         },
     ];
     time_svg(path, &panels, true)?;

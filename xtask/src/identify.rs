@@ -72,7 +72,37 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
     let out = out
         .map(Path::to_path_buf)
         .unwrap_or_else(|| default_out(campaign));
+    // A model that names effects beyond the core: those are refitted with it.
+    let dopts = zmp_validation::diagnose::DiagnoseOptions {
+        campaign_path: campaign.display().to_string(),
+        model_path: a
+            .model
+            .map_or_else(|| out.display().to_string(), |m| m.display().to_string()),
+        ..Default::default()
+    };
+    let mut ident = ident;
+    let mut change = "identified".to_string();
+    if a.model.is_some() {
+        let pb = progress_bar(1, "refitting", quiet);
+        let refit =
+            zmp_validation::diagnose::augment::refit_structure(&camp, &ident.model, &dopts)?;
+        pb.finish_and_clear();
+        if let Some(r) = refit {
+            if !quiet {
+                println!(
+                    "refitted the structure the model names: error {:.4} -> {:.4} (noise floor {:.4})",
+                    r.error_before, r.error_after, r.noise_floor
+                );
+                for (k, (v, se)) in &r.parameters {
+                    println!("  {k:<40} {v:>12.6} +- {se:.3e}");
+                }
+            }
+            ident.model = r.spec;
+            change = "refit".into();
+        }
+    }
     write_model(&ident, &out, force)?;
+    record_in_ledger(&camp, &ident.model, &out, a.model, &change, &dopts, quiet);
     let files = match report {
         Some(dir) => Some(write_report(&ident, dir, force)?),
         None => None,
@@ -117,6 +147,51 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
         }
     }
     Ok(ident)
+}
+
+/// Records the written model in the ledger beside it, with its error on the campaign (a
+/// failure here is a warning: the model file is written).
+pub fn record_in_ledger(
+    camp: &zmp_validation::campaign::Campaign,
+    spec: &zmp_models::ModelSpec,
+    out: &Path,
+    parent: Option<&Path>,
+    change: &str,
+    opts: &zmp_validation::diagnose::DiagnoseOptions,
+    quiet: bool,
+) {
+    use zmp_validation::diagnose::{engine::evaluate, measure::aggregate, run::observe_campaign};
+    let run = || -> Result<()> {
+        let (obs, _) = observe_campaign(camp, opts.threads);
+        let refs: Vec<_> = obs.iter().collect();
+        let (e, f) = aggregate(&evaluate(spec, &refs)?);
+        // A starting model in the same folder joins the chain (recorded first if new).
+        let parent = parent.filter(|p| p.parent() == out.parent() && p != &out);
+        if let Some(p) = parent {
+            let known = zmp_validation::ledger::read(out)?
+                .iter()
+                .any(|e| Some(e.model.as_str()) == p.file_name().and_then(|n| n.to_str()));
+            if !known {
+                let start = crate::simulate::load_model(p)?;
+                let (e0, f0) = aggregate(&evaluate(&start, &refs)?);
+                zmp_validation::ledger::append(
+                    p,
+                    None,
+                    "starting model",
+                    &opts.campaign_path,
+                    e0,
+                    f0,
+                )?;
+            }
+        }
+        zmp_validation::ledger::append(out, parent, change, &opts.campaign_path, e, f)?;
+        Ok(())
+    };
+    if let Err(e) = run() {
+        if !quiet {
+            eprintln!("warning: the model's ledger entry was not written: {e:#}");
+        }
+    }
 }
 
 /// The demo's identification step: identifies the in-memory virtual campaign, writes

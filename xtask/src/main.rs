@@ -2,6 +2,7 @@
 
 mod ci;
 mod demo;
+mod diagnose;
 mod env;
 mod fmu;
 mod identify;
@@ -118,6 +119,82 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// Compare a model with a campaign: one error measure per record and channel against its
+    /// noise floor, where the model fails (channel, frequency band, amplitude, operating
+    /// point), and an HTML report (Bode and time overlays, residual spectrum, harmonics,
+    /// error against frequency, amplitude and operating point).
+    Compare {
+        /// Campaign folder (with campaign.toml).
+        campaign: PathBuf,
+        /// Model file (zmp-model/1).
+        #[arg(long)]
+        model: PathBuf,
+        /// Report folder.
+        #[arg(long, default_value = "out/compare")]
+        report: PathBuf,
+        /// Overwrite existing report files.
+        #[arg(long)]
+        force: bool,
+        /// Print the errors and failing cells as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Name the physical effect the model is missing: every catalogued effect (time_delay,
+    /// backlash, coulomb_friction, acceleration_saturation, structural_mode, sensor_lowpass,
+    /// operating_point_dependence, sensor_drift, cross_coupling) is added, fitted with the
+    /// pendulum and bandwidth, and scored on held-out records; effects are added forward
+    /// while they remove a significant part of the error. Verdict: an effect, `none` (the
+    /// model explains the data to the noise floor) or `unexplained`.
+    Diagnose {
+        /// Campaign folder (with campaign.toml).
+        campaign: PathBuf,
+        /// Model file (zmp-model/1).
+        #[arg(long)]
+        model: PathBuf,
+        /// Also write an HTML report into this folder.
+        #[arg(long)]
+        report: Option<PathBuf>,
+        /// Overwrite existing report files.
+        #[arg(long)]
+        force: bool,
+        /// Print the findings as JSON (zmp-diagnosis/1).
+        #[arg(long)]
+        json: bool,
+    },
+    /// Add a catalogued effect to a model, fitted with the pendulum and bandwidth on every
+    /// record of a campaign; writes the new model (default <model>+<effect>.toml beside it)
+    /// and records both versions and their errors in the ledger beside them.
+    Augment {
+        /// Model file (zmp-model/1).
+        model: PathBuf,
+        /// Effect to add (a name from `cargo xtask diagnose`).
+        #[arg(long)]
+        add: String,
+        /// Campaign folder the effect is fitted on.
+        #[arg(long)]
+        campaign: PathBuf,
+        /// Model file to write.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Overwrite an existing output file.
+        #[arg(long)]
+        force: bool,
+        /// Print the result as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// The versions that led to a model (from the ledger beside it: identify and augment
+    /// write it) with their errors, as a table and an error waterfall (SVG).
+    History {
+        /// Model file.
+        model: PathBuf,
+        /// Waterfall plot (default <model>.history.svg beside it).
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Print the versions as JSON.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -164,6 +241,33 @@ fn run(cli: Cli) -> Result<()> {
                 json,
             })
             .map(|_| ())
+        }
+        Cmd::Compare {
+            campaign,
+            model,
+            report,
+            force,
+            json,
+        } => diagnose::compare(&campaign, &model, &report, force, json),
+        Cmd::Diagnose {
+            campaign,
+            model,
+            report,
+            force,
+            json,
+        } => diagnose::diagnose_cmd(&campaign, &model, report.as_deref(), force, json).map(|_| ()),
+        Cmd::Augment {
+            model,
+            add,
+            campaign,
+            out,
+            force,
+            json,
+        } => {
+            diagnose::augment_cmd(&model, &add, &campaign, out.as_deref(), force, json).map(|_| ())
+        }
+        Cmd::History { model, plot, json } => {
+            diagnose::history_cmd(&model, plot.as_deref(), true, json)
         }
         Cmd::Fmu { model, out, force } => fmu::build_fmus(&model, &out, force).map(|files| {
             for f in files {

@@ -135,10 +135,9 @@ pub fn cells(obs: &[&Observation], preds: &[Prediction]) -> Vec<Cell> {
         })
         .collect();
     out.sort_by(|a, b| {
-        b.significant.cmp(&a.significant).then(
-            (b.error * b.error - b.noise_floor * b.noise_floor)
-                .total_cmp(&(a.error * a.error - a.noise_floor * a.noise_floor)),
-        )
+        b.significant
+            .cmp(&a.significant)
+            .then(b.ratio.total_cmp(&a.ratio))
     });
     out
 }

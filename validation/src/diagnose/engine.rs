@@ -114,6 +114,16 @@ pub fn is_costly(effect: &str) -> bool {
     matches!(effect, "coulomb_friction" | "acceleration_saturation")
 }
 
+/// Fits `frees` (the first `own` of them an effect's own) of `start` on `obs`.
+pub fn fit_structure(
+    start: &ModelSpec,
+    frees: &[Free],
+    own: usize,
+    obs: &[&Observation],
+) -> Option<Fitted> {
+    fit_from(start, frees, own, obs, ITERS_JOINT)
+}
+
 /// The two frequency-parity folds: `fold[k]` is true for records in the second fold.
 pub fn folds(obs: &[&Observation]) -> Vec<bool> {
     let omegas = distinct_omegas(obs);
@@ -268,7 +278,11 @@ pub fn evaluate(
 
 /// Parameters of a fitted candidate's own effect, by dotted name, with standard errors.
 pub fn own_parameters(s: &Scored) -> BTreeMap<String, (f64, f64)> {
-    let f = &s.fitted;
+    own_parameters_of(&s.fitted)
+}
+
+/// The same for a fit.
+pub fn own_parameters_of(f: &Fitted) -> BTreeMap<String, (f64, f64)> {
     f.frees
         .iter()
         .zip(&f.theta)

@@ -1,0 +1,221 @@
+//! Adding a catalogued effect to a model (fitted with the core parameters on every record),
+//! and refitting the structure a model file names.
+
+use super::candidates::{core_frees, model_kind, DataRange, Free, CATALOGUE};
+use super::engine::{evaluate, fit_structure, own_parameters_of, Fitted};
+use super::measure::aggregate;
+use super::observe::Observation;
+use super::run::{check_inputs, observe_campaign, DiagnoseError, DiagnoseOptions};
+use crate::campaign::Campaign;
+use crate::identify::utc_now;
+use std::collections::BTreeMap;
+use zmp_models::ModelSpec;
+
+/// A model with an effect added or its structure refitted, and its error before and after.
+#[derive(Debug, Clone)]
+pub struct Augmented {
+    pub spec: ModelSpec,
+    /// What changed: `+time_delay`, `refit`.
+    pub change: String,
+    pub error_before: f64,
+    pub error_after: f64,
+    pub noise_floor: f64,
+    /// Fitted parameters of the added effect (or of every non-core effect): value, s.e.
+    pub parameters: BTreeMap<String, (f64, f64)>,
+    pub records: usize,
+}
+
+fn prepare(
+    campaign: &Campaign,
+    model: &ModelSpec,
+    opts: &DiagnoseOptions,
+) -> Result<Vec<Observation>, DiagnoseError> {
+    let (obs, _) = observe_campaign(campaign, opts.threads);
+    let refs: Vec<&Observation> = obs.iter().collect();
+    check_inputs(&refs, model, opts)?;
+    Ok(obs)
+}
+
+fn error_of(
+    spec: &ModelSpec,
+    obs: &[&Observation],
+    opts: &DiagnoseOptions,
+) -> Result<(f64, f64), DiagnoseError> {
+    let s = evaluate(spec, obs).map_err(|e| DiagnoseError::Model {
+        model: opts.model_path.clone(),
+        message: e.to_string(),
+    })?;
+    Ok(aggregate(&s))
+}
+
+fn record_stderr(spec: &mut ModelSpec, fitted: &Fitted) {
+    for (f, se) in fitted.frees.iter().zip(&fitted.std_err) {
+        if !se.is_finite() {
+            continue;
+        }
+        let table = spec
+            .stderr
+            .entry(f.kind.to_string())
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        let Some(t) = table.as_table_mut() else {
+            continue;
+        };
+        match f.bindings.first().and_then(|b| b.key()) {
+            Some(k) if f.bindings.len() == 1 => {
+                let sub = t
+                    .entry(k.to_string())
+                    .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+                if let Some(s) = sub.as_table_mut() {
+                    s.insert(f.param.to_string(), toml::Value::Float(*se));
+                }
+            }
+            _ => {
+                t.insert(f.param.to_string(), toml::Value::Float(*se));
+            }
+        }
+    }
+}
+
+fn stamp(spec: &mut ModelSpec, change: &str, campaign: &str, records: usize) {
+    spec.provenance.insert(
+        "tool".into(),
+        toml::Value::String(format!("zmp-validation {}", env!("CARGO_PKG_VERSION"))),
+    );
+    spec.provenance
+        .insert("date".into(), toml::Value::String(utc_now()));
+    spec.provenance
+        .insert("campaign".into(), toml::Value::String(campaign.to_string()));
+    spec.provenance
+        .insert("records".into(), toml::Value::Integer(records as i64));
+    spec.provenance
+        .insert("change".into(), toml::Value::String(change.to_string()));
+}
+
+/// Adds `effect` (a catalogue name) to `model` and fits it, with the core parameters, on every
+/// record of `campaign`.
+pub fn augment(
+    campaign: &Campaign,
+    model: &ModelSpec,
+    effect: &str,
+    opts: &DiagnoseOptions,
+) -> Result<Augmented, DiagnoseError> {
+    let Some(cand) = CATALOGUE.iter().find(|c| c.effect == effect) else {
+        return Err(DiagnoseError::Model {
+            model: opts.model_path.clone(),
+            message: format!(
+                "unknown effect {effect:?}: the catalogue has {}",
+                CATALOGUE
+                    .iter()
+                    .map(|c| c.effect)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        });
+    };
+    if effect != "cross_coupling" && model.has(model_kind(effect)) {
+        return Err(DiagnoseError::Model {
+            model: opts.model_path.clone(),
+            message: format!(
+                "the model already has {effect}; to refit it run `cargo xtask identify CAMPAIGN \
+                 --model {}`",
+                opts.model_path
+            ),
+        });
+    }
+    let obs = prepare(campaign, model, opts)?;
+    let refs: Vec<&Observation> = obs.iter().collect();
+    let (before, floor) = error_of(model, &refs, opts)?;
+    let starts = (cand.prepare)(model, &DataRange::of(&refs));
+    if starts.is_empty() {
+        return Err(DiagnoseError::Model {
+            model: opts.model_path.clone(),
+            message: format!("{effect} has nothing to add to this model on this campaign"),
+        });
+    }
+    let fitted =
+        super::engine::fit(effect, &starts, &refs).ok_or_else(|| DiagnoseError::Model {
+            model: opts.model_path.clone(),
+            message: format!("the fit of {effect} failed"),
+        })?;
+    let (after, _) = error_of(&fitted.spec, &refs, opts)?;
+    let mut spec = fitted.spec.clone();
+    record_stderr(&mut spec, &fitted);
+    let change = format!("+{effect}");
+    stamp(&mut spec, &change, &opts.campaign_path, refs.len());
+    Ok(Augmented {
+        parameters: own_parameters_of(&fitted),
+        spec,
+        change,
+        error_before: before,
+        error_after: after,
+        noise_floor: floor,
+        records: refs.len(),
+    })
+}
+
+/// The free parameters of every effect the model names beyond the core (pendulum, tracking
+/// low-pass, uncertainty), within their declared ranges.
+pub fn structure_frees(spec: &ModelSpec) -> Vec<Free> {
+    let mut out = Vec::new();
+    for e in &spec.effects {
+        if e.info.core || e.info.kind == "uncertainty" {
+            continue;
+        }
+        for (k, p) in e.info.params.iter().enumerate() {
+            let v = e.values[k];
+            let (min, max) = (p.min, p.max);
+            if !(min.is_finite() && max.is_finite()) || max <= min {
+                continue;
+            }
+            out.push(Free {
+                kind: e.info.kind,
+                bindings: vec![e.binding],
+                param: p.name,
+                bounds: super::lm::Bounded {
+                    value: v.clamp(min, max),
+                    min,
+                    max,
+                },
+            });
+        }
+    }
+    out
+}
+
+/// Refits every parameter of the structure `model` names (its non-core effects and the core)
+/// on `campaign`. Returns `None` in `Augmented::change` terms when the model has no effect
+/// beyond the core.
+pub fn refit_structure(
+    campaign: &Campaign,
+    model: &ModelSpec,
+    opts: &DiagnoseOptions,
+) -> Result<Option<Augmented>, DiagnoseError> {
+    let own = structure_frees(model);
+    if own.is_empty() {
+        return Ok(None);
+    }
+    let obs = prepare(campaign, model, opts)?;
+    let refs: Vec<&Observation> = obs.iter().collect();
+    let (before, floor) = error_of(model, &refs, opts)?;
+    let n_own = own.len();
+    let mut frees = own;
+    frees.extend(core_frees(model, true));
+    let fitted =
+        fit_structure(model, &frees, n_own, &refs).ok_or_else(|| DiagnoseError::Model {
+            model: opts.model_path.clone(),
+            message: "the refit of the model's structure failed".into(),
+        })?;
+    let (after, _) = error_of(&fitted.spec, &refs, opts)?;
+    let mut spec = fitted.spec.clone();
+    record_stderr(&mut spec, &fitted);
+    stamp(&mut spec, "refit", &opts.campaign_path, refs.len());
+    Ok(Some(Augmented {
+        parameters: own_parameters_of(&fitted),
+        spec,
+        change: "refit".into(),
+        error_before: before,
+        error_after: after,
+        noise_floor: floor,
+        records: refs.len(),
+    }))
+}

@@ -1,0 +1,623 @@
+//! The comparison and diagnosis reports: a self-contained HTML page (figures inline) plus the
+//! figures as SVG files.
+//!
+//! Figures: Bode overlays of the measured points and the model(s), the error against
+//! frequency per channel and amplitude, the error by amplitude and by operating point, the
+//! steady-state time overlay and the residual spectrum of the worst record, the third
+//! harmonic against frequency, and (diagnosis) the error waterfall.
+
+use super::cells::{channel_scores, Cell};
+use super::measure::{aggregate, score, Prediction};
+use super::observe::Observation;
+use super::run::Diagnosis;
+use crate::campaign::Campaign;
+use crate::plot::{
+    bars_svg, bode_svg, time_svg, BodePanel, BodeSeries, Style, TimePanel, TimeSeries, PALETTE,
+};
+use anyhow::{Context, Result};
+use num_complex::Complex64;
+use rustfft::FftPlanner;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use zmp_models::{Axis, Channel};
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// What a comparison report shows: the campaign's observations against one or more models.
+pub struct Overlay<'a> {
+    pub label: &'a str,
+    pub predictions: &'a [Prediction],
+}
+
+fn bode_panels(obs: &[&Observation], models: &[Overlay]) -> Vec<BodePanel> {
+    // Model curves through the records of one operating point and the largest amplitude, by
+    // frequency; measured points for every record.
+    let op0 = obs.first().map(|o| o.operating_point).unwrap_or([0.0; 2]);
+    let amax = obs.iter().map(|o| o.nominal_amplitude).fold(0.0, f64::max);
+    let mut out = Vec::new();
+    for ch in Channel::ALL {
+        let (i, j) = (ch.output.index(), ch.input.index());
+        let mine: Vec<usize> = (0..obs.len())
+            .filter(|&k| obs[k].excited.index() == j)
+            .collect();
+        if mine.is_empty() {
+            continue;
+        }
+        let mut panel = BodePanel {
+            title: format!("{} ({} from {})", ch.name(), ch.output, ch.input),
+            ..Default::default()
+        };
+        panel.series.push(BodeSeries::points(
+            "measured",
+            mine.iter().map(|&k| obs[k].omega).collect(),
+            mine.iter().map(|&k| obs[k].g(i)).collect(),
+            PALETTE[0],
+        ));
+        let mut line: Vec<usize> = mine
+            .iter()
+            .copied()
+            .filter(|&k| obs[k].operating_point == op0 && obs[k].nominal_amplitude == amax)
+            .collect();
+        line.sort_by(|a, b| obs[*a].omega.total_cmp(&obs[*b].omega));
+        for (m, ov) in models.iter().enumerate() {
+            let s = BodeSeries::line(
+                ov.label,
+                line.iter().map(|&k| obs[k].omega).collect(),
+                line.iter().map(|&k| ov.predictions[k].g[i]).collect(),
+                PALETTE[(m + 1) % PALETTE.len()],
+            );
+            panel.series.push(if m == 0 && models.len() > 1 {
+                s.dashed()
+            } else {
+                s
+            });
+        }
+        out.push(panel);
+    }
+    out
+}
+
+/// Error over noise floor per record and channel against log10 frequency, one series per
+/// amplitude.
+fn error_panels(obs: &[&Observation], preds: &[Prediction]) -> Vec<TimePanel> {
+    let mut amps: Vec<f64> = obs.iter().map(|o| o.nominal_amplitude).collect();
+    amps.sort_by(f64::total_cmp);
+    amps.dedup();
+    let mut out = Vec::new();
+    for ch in Channel::ALL {
+        let (i, j) = (ch.output.index(), ch.input.index());
+        let mut series = Vec::new();
+        for (m, a) in amps.iter().enumerate() {
+            // RMS over operating points at each frequency.
+            let mut by_w: Vec<(f64, f64, f64)> = Vec::new();
+            for (o, p) in obs.iter().zip(preds) {
+                if o.excited.index() != j || o.nominal_amplitude != *a {
+                    continue;
+                }
+                let c = channel_scores(o, p)[i];
+                match by_w.iter_mut().find(|x| x.0 == o.omega) {
+                    Some(x) => {
+                        x.1 += c.error2;
+                        x.2 += c.floor2;
+                    }
+                    None => by_w.push((o.omega, c.error2, c.floor2)),
+                }
+            }
+            by_w.sort_by(|a, b| a.0.total_cmp(&b.0));
+            if by_w.is_empty() {
+                continue;
+            }
+            series.push(TimeSeries {
+                label: format!("{:.1} mm", a * 1e3),
+                t: by_w.iter().map(|x| x.0.log10()).collect(),
+                y: by_w
+                    .iter()
+                    .map(|x| (x.1 / x.2.max(1e-300)).sqrt())
+                    .collect(),
+                color: PALETTE[m % PALETTE.len()],
+                style: Style::Line,
+            });
+        }
+        if series.is_empty() {
+            continue;
+        }
+        let w: Vec<f64> = series[0].t.clone();
+        series.push(TimeSeries {
+            label: "noise floor".into(),
+            t: vec![w[0], w[w.len() - 1]],
+            y: vec![1.0, 1.0],
+            color: PALETTE[5],
+            style: Style::Dashed,
+        });
+        out.push(TimePanel {
+            title: format!("{}: error / noise floor against frequency", ch.name()),
+            y_label: "error / floor".into(),
+            series,
+            markers: vec![],
+            x_label: Some("log10 omega (rad/s)".into()),
+        });
+    }
+    out
+}
+
+fn harmonic_panel(obs: &[&Observation]) -> TimePanel {
+    let mut series = Vec::new();
+    for (m, ch) in Channel::ALL.iter().enumerate() {
+        let (i, j) = (ch.output.index(), ch.input.index());
+        let mut pts: Vec<(f64, f64)> = obs
+            .iter()
+            .filter(|o| o.excited.index() == j)
+            .map(|o| {
+                (
+                    o.omega.log10(),
+                    100.0 * o.y3[i].norm() / o.y1[i].norm().max(1e-300),
+                )
+            })
+            .collect();
+        if pts.is_empty() {
+            continue;
+        }
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        series.push(TimeSeries {
+            label: ch.name().to_string(),
+            t: pts.iter().map(|p| p.0).collect(),
+            y: pts.iter().map(|p| p.1).collect(),
+            color: PALETTE[m % PALETTE.len()],
+            style: Style::Points,
+        });
+    }
+    TimePanel {
+        title: "Third harmonic of the measured ZMP, % of the fundamental (nonlinearity)".into(),
+        y_label: "|Y3| / |Y1| (%)".into(),
+        series,
+        markers: vec![],
+        x_label: Some("log10 omega (rad/s)".into()),
+    }
+}
+
+/// The worst record (largest excess error): time overlay of its steady state (measured against
+/// the model's first harmonic and trend on the measured mean) and the residual's spectrum.
+fn worst_record_panels(
+    campaign: &Campaign,
+    obs: &[&Observation],
+    preds: &[Prediction],
+) -> Option<(usize, Vec<TimePanel>, TimePanel)> {
+    let (k, _) = obs
+        .iter()
+        .zip(preds)
+        .enumerate()
+        .map(|(k, (o, p))| {
+            let s = score(o, p);
+            (k, s.error2 - s.floor2)
+        })
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let o = obs[k];
+    let rec = campaign.records.get(o.index)?;
+    let i0 = rec.t.iter().position(|&t| t >= o.t0)?;
+    let i1 = rec.t.iter().rposition(|&t| t <= o.t1)? + 1;
+    let t = &rec.t[i0..i1];
+    let tmid = 0.5 * (o.t0 + o.t1);
+    let mut panels = Vec::new();
+    let mut residual_spec = None;
+    for axis in Axis::BOTH {
+        let i = axis.index();
+        let y = &rec.output(axis)[i0..i1];
+        let mean = y.iter().sum::<f64>() / y.len() as f64;
+        let g = preds[k].g[i] * o.u1;
+        let model: Vec<f64> = t
+            .iter()
+            .map(|&tk| {
+                mean + preds[k].slope[i] * (tk - tmid)
+                    + (g * Complex64::from_polar(1.0, o.omega * tk)).im
+            })
+            .collect();
+        let resid: Vec<f64> = y.iter().zip(&model).map(|(a, b)| a - b).collect();
+        let step = (y.len() / 2000).max(1);
+        let pick = |v: &[f64]| v.iter().step_by(step).map(|x| x * 1e3).collect::<Vec<_>>();
+        let tt: Vec<f64> = t.iter().step_by(step).copied().collect();
+        panels.push(TimePanel {
+            title: format!(
+                "record {} ({} excited, {:.2} rad/s, {:.1} mm, op ({:.3}, {:.3}) m): zmp_{}",
+                o.index,
+                o.excited,
+                o.omega,
+                o.nominal_amplitude * 1e3,
+                o.operating_point[0],
+                o.operating_point[1],
+                axis
+            ),
+            y_label: "mm".into(),
+            series: vec![
+                TimeSeries {
+                    label: "measured".into(),
+                    t: tt.clone(),
+                    y: pick(y),
+                    color: PALETTE[0],
+                    style: Style::Line,
+                },
+                TimeSeries {
+                    label: "model (steady state)".into(),
+                    t: tt.clone(),
+                    y: pick(&model),
+                    color: PALETTE[1],
+                    style: Style::Line,
+                },
+                TimeSeries {
+                    label: "residual".into(),
+                    t: tt,
+                    y: pick(&resid),
+                    color: PALETTE[3],
+                    style: Style::Line,
+                },
+            ],
+            markers: vec![],
+            x_label: None,
+        });
+        if axis == o.excited {
+            // Amplitude spectrum of the residual, Hann window.
+            let n = resid.len();
+            let mut buf: Vec<Complex64> = resid
+                .iter()
+                .enumerate()
+                .map(|(m, v)| {
+                    let w = 0.5 - 0.5 * (2.0 * std::f64::consts::PI * m as f64 / n as f64).cos();
+                    Complex64::new(v * w, 0.0)
+                })
+                .collect();
+            FftPlanner::new().plan_fft_forward(n).process(&mut buf);
+            let dt = rec.dt();
+            let wmax = (8.0 * o.omega).min(std::f64::consts::PI / dt);
+            let (mut f, mut a) = (Vec::new(), Vec::new());
+            for (m, c) in buf.iter().enumerate().take(n / 2) {
+                let w = 2.0 * std::f64::consts::PI * m as f64 / (n as f64 * dt);
+                if w > wmax {
+                    break;
+                }
+                f.push(w);
+                a.push(4.0 * c.norm() / n as f64 * 1e3);
+            }
+            residual_spec = Some(TimePanel {
+                title: format!(
+                    "Residual spectrum of zmp_{axis}, record {} (markers: omega, 2 omega, 3 omega)",
+                    o.index
+                ),
+                y_label: "amplitude (mm)".into(),
+                series: vec![TimeSeries {
+                    label: "residual".into(),
+                    t: f,
+                    y: a,
+                    color: PALETTE[3],
+                    style: Style::Line,
+                }],
+                markers: (1..=3)
+                    .map(|h| (h as f64 * o.omega, format!("{h}w")))
+                    .collect(),
+                x_label: Some("omega (rad/s)".into()),
+            });
+        }
+    }
+    Some((o.index, panels, residual_spec?))
+}
+
+fn group_bars(
+    obs: &[&Observation],
+    preds: &[Prediction],
+    key: &dyn Fn(&Observation) -> String,
+) -> Vec<(String, f64)> {
+    let mut groups: Vec<(String, Vec<super::measure::RecordScore>)> = Vec::new();
+    for (o, p) in obs.iter().zip(preds) {
+        let k = key(o);
+        let s = score(o, p);
+        match groups.iter_mut().find(|g| g.0 == k) {
+            Some(g) => g.1.push(s),
+            None => groups.push((k, vec![s])),
+        }
+    }
+    groups
+        .into_iter()
+        .map(|(k, s)| {
+            let (e, f) = aggregate(&s);
+            (k, e / f)
+        })
+        .collect()
+}
+
+/// Writes the comparison figures of `preds` (the model) into `dir`; returns the HTML body.
+fn comparison_section(
+    campaign: &Campaign,
+    obs: &[&Observation],
+    models: &[Overlay],
+    dir: &Path,
+    force: bool,
+    prefix: &str,
+) -> Result<(String, Vec<PathBuf>)> {
+    let preds = models.last().expect("one model at least").predictions;
+    let mut files = Vec::new();
+    let mut h = String::new();
+    let bode = dir.join(format!("{prefix}bode.svg"));
+    bode_svg(&bode, &bode_panels(obs, models), 2, force)?;
+    files.push(bode.clone());
+    h.push_str("<h2>Frequency responses: measured points and model</h2>\n");
+    let _ = writeln!(h, "<div>{}</div>", std::fs::read_to_string(&bode)?);
+
+    let err = dir.join(format!("{prefix}error_vs_frequency.svg"));
+    time_svg(&err, &error_panels(obs, preds), force)?;
+    files.push(err.clone());
+    h.push_str(
+        "<h2>Error against frequency (per channel, RMS over operating points; 1 = noise \
+         floor)</h2>\n",
+    );
+    let _ = writeln!(h, "<div>{}</div>", std::fs::read_to_string(&err)?);
+
+    let amp = dir.join(format!("{prefix}error_by_amplitude.svg"));
+    bars_svg(
+        &amp,
+        "Error / noise floor by amplitude",
+        "error / floor",
+        &group_bars(obs, preds, &|o| {
+            format!("{:.1} mm", o.nominal_amplitude * 1e3)
+        }),
+        Some((1.0, "noise floor")),
+        force,
+    )?;
+    let op = dir.join(format!("{prefix}error_by_operating_point.svg"));
+    bars_svg(
+        &op,
+        "Error / noise floor by operating point",
+        "error / floor",
+        &group_bars(obs, preds, &|o| {
+            format!("({:.3}, {:.3})", o.operating_point[0], o.operating_point[1])
+        }),
+        Some((1.0, "noise floor")),
+        force,
+    )?;
+    files.push(amp.clone());
+    files.push(op.clone());
+    h.push_str("<h2>Error by amplitude and by operating point</h2>\n");
+    let _ = writeln!(
+        h,
+        "<div>{}</div><div>{}</div>",
+        std::fs::read_to_string(&amp)?,
+        std::fs::read_to_string(&op)?
+    );
+
+    if let Some((index, panels, spec)) = worst_record_panels(campaign, obs, preds) {
+        let t = dir.join(format!("{prefix}worst_record_time.svg"));
+        time_svg(&t, &panels, force)?;
+        let s = dir.join(format!("{prefix}worst_record_residual_spectrum.svg"));
+        time_svg(&s, std::slice::from_ref(&spec), force)?;
+        files.push(t.clone());
+        files.push(s.clone());
+        let _ = writeln!(
+            h,
+            "<h2>Worst record ({index}): steady-state time overlay and residual spectrum</h2>\n\
+             <p>The model's steady state is its first harmonic and trend on the measured mean; \
+             what remains (residual) is noise, harmonics the model does not produce, or a \
+             misfit of the fundamental.</p>\n<div>{}</div><div>{}</div>",
+            std::fs::read_to_string(&t)?,
+            std::fs::read_to_string(&s)?
+        );
+    }
+    let hp = dir.join(format!("{prefix}harmonics.svg"));
+    time_svg(&hp, &[harmonic_panel(obs)], force)?;
+    files.push(hp.clone());
+    h.push_str("<h2>Harmonics</h2>\n");
+    let _ = writeln!(h, "<div>{}</div>", std::fs::read_to_string(&hp)?);
+    Ok((h, files))
+}
+
+fn cells_table(cells: &[Cell], max: usize) -> String {
+    let bad: Vec<&Cell> = cells.iter().filter(|c| c.significant).take(max).collect();
+    if bad.is_empty() {
+        return "<p>No cell is significantly above its noise floor.</p>\n".into();
+    }
+    let mut h = String::from(
+        "<table><tr><th>channel</th><th>band (rad/s)</th><th>amplitude (mm)</th>\
+         <th>operating point (m)</th><th>records</th><th>error</th><th>noise floor</th>\
+         <th>error / floor</th></tr>\n",
+    );
+    for c in bad {
+        let _ = writeln!(
+            h,
+            "<tr><td class=\"l\">{}</td><td>{:.2}-{:.2} ({})</td><td>{:.1}</td>\
+             <td>({:.3}, {:.3})</td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{:.1}</td></tr>",
+            c.channel,
+            c.band_rad_s[0],
+            c.band_rad_s[1],
+            c.band,
+            c.amplitude_m * 1e3,
+            c.operating_point_m[0],
+            c.operating_point_m[1],
+            c.records,
+            c.error,
+            c.noise_floor,
+            c.ratio
+        );
+    }
+    h.push_str("</table>\n");
+    h
+}
+
+const STYLE: &str = "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;}\
+table{border-collapse:collapse;margin:1em 0;}td,th{border:1px solid #ccc;padding:3px 8px;\
+text-align:right;}th{background:#eee;}td.l{text-align:left;}.v{font-size:1.3em;}\
+.ok{color:#070;}.bad{color:#a40;}</style>";
+
+const MEASURE: &str = "<p><b>Error measure</b> (the same everywhere): per record, the RMS over \
+its steady state of the difference between the measured and the modelled response (first \
+harmonic and linear trend of both ZMP outputs), divided by the RMS of the measured first \
+harmonic; the campaign figure is the RMS over records. The <b>noise floor</b> is the same \
+measure for the estimation noise of the measured components alone (from the residual of each \
+record's harmonic fit): what a perfect model would score.</p>";
+
+/// Comparison report of `campaign` against one model; returns the HTML file.
+pub fn write_compare_report(
+    campaign: &Campaign,
+    campaign_name: &str,
+    model_name: &str,
+    obs: &[&Observation],
+    preds: &[Prediction],
+    cells: &[Cell],
+    dir: &Path,
+    force: bool,
+) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let scores: Vec<_> = obs.iter().zip(preds).map(|(o, p)| score(o, p)).collect();
+    let (e, f) = aggregate(&scores);
+    let mut h = String::new();
+    let title = format!("Model against measurements: {model_name} on {campaign_name}");
+    let _ = writeln!(
+        h,
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{0}</title>{STYLE}</head>\
+         <body>\n<h1>{0}</h1>\n<p class=\"v\">Error {e:.4}, noise floor {f:.4}: \
+         <span class=\"{1}\">{2:.1}x the floor</span> over {3} records.</p>\n{MEASURE}",
+        esc(&title),
+        if e <= 1.5 * f { "ok" } else { "bad" },
+        e / f,
+        obs.len()
+    );
+    h.push_str("<h2>Where it fails</h2>\n<p>Cells (channel, frequency band, amplitude, operating point) whose error is significantly above their noise floor, worst first.</p>\n");
+    h.push_str(&cells_table(cells, 20));
+    let (body, _) = comparison_section(
+        campaign,
+        obs,
+        &[Overlay {
+            label: "model",
+            predictions: preds,
+        }],
+        dir,
+        force,
+        "",
+    )?;
+    h.push_str(&body);
+    h.push_str("<p>Next: <code>cargo xtask diagnose</code> names the physical effect that is missing.</p></body></html>\n");
+    let html = dir.join("compare.html");
+    crate::io::atomic_write(&html, h.as_bytes(), force)?;
+    Ok(html)
+}
+
+/// Diagnosis report; `waterfall` is the error of each model version (label, error) if known.
+pub fn write_diagnosis_report(
+    campaign: &Campaign,
+    d: &Diagnosis,
+    dir: &Path,
+    force: bool,
+) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let obs: Vec<&Observation> = d.observations.iter().collect();
+    let f = d.noise_floor;
+    let mut h = String::new();
+    let title = format!("Diagnosis: {} on {}", d.model, d.campaign);
+    let verdict = match d.verdict.as_str() {
+        "none" => "none: the model explains the measurements to the noise floor".to_string(),
+        "unexplained" => {
+            "unexplained: a significant error remains that no catalogued effect removes".to_string()
+        }
+        "parameter_refit" => {
+            "the structure is right but the parameters are off: identify again".to_string()
+        }
+        e => format!("the model is missing <b>{e}</b>"),
+    };
+    let _ = writeln!(
+        h,
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{0}</title>{STYLE}</head>\
+         <body>\n<h1>{0}</h1>\n<p class=\"v\">Verdict: {verdict}.</p>\n\
+         <p>The model as given scores {1:.4} ({2:.1}x the noise floor {f:.4}) on {3} records; \
+         each catalogued effect was added, fitted with the pendulum and the bandwidth, and scored \
+         on records it was not fitted on (two folds by alternate frequencies). An effect counts \
+         when it removes at least half of the error above the floor.</p>\n{MEASURE}",
+        esc(&title),
+        d.baseline_error,
+        d.baseline_error / f,
+        d.records
+    );
+    h.push_str("<h2>Findings</h2>\n<table><tr><th>#</th><th>effect</th><th>channels</th><th>parameters</th><th>error before</th><th>error after (held-out)</th><th class=\"l\">evidence</th></tr>\n");
+    for (k, fd) in d.findings.iter().enumerate() {
+        let params: Vec<String> = fd
+            .parameters
+            .iter()
+            .map(|(n, v)| format!("{n} = {}", super::evidence::sig(*v)))
+            .collect();
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td class=\"l\">{}{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td>\
+             <td>{:.4}</td><td>{:.4}</td><td class=\"l\">{}</td></tr>",
+            k + 1,
+            esc(&fd.effect),
+            if fd.significant { "" } else { " (not significant)" },
+            fd.channels.join(", "),
+            esc(&params.join("<br>")),
+            fd.error_before,
+            fd.error_after,
+            esc(&fd.evidence)
+        );
+    }
+    h.push_str("</table>\n");
+    let _ = writeln!(
+        h,
+        "<p>Every candidate fitted (held-out error / noise floor): {}.</p>",
+        d.tried
+            .iter()
+            .map(|(e, x)| format!("{e} {:.2}", x / f))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    // Waterfall.
+    let mut bars = vec![("model as given".to_string(), d.baseline_error)];
+    if d.refit_error.is_finite() {
+        bars.push(("refitted".into(), d.refit_error));
+    }
+    for (e, x) in &d.selected {
+        bars.push((format!("+ {e}"), *x));
+    }
+    let wf = dir.join("waterfall.svg");
+    bars_svg(
+        &wf,
+        "Error as effects are added (held-out)",
+        "error",
+        &bars,
+        Some((f, "noise floor")),
+        force,
+    )?;
+    h.push_str("<h2>Error waterfall</h2>\n");
+    let _ = writeln!(h, "<div>{}</div>", std::fs::read_to_string(&wf)?);
+    if !d.selected.is_empty() {
+        h.push_str("<h2>Before and after</h2>\n<p>Dashed: the model as given; solid: with the effects found (fitted on every record).</p>\n");
+    }
+    let overlays: Vec<Overlay> = if d.selected.is_empty() {
+        vec![Overlay {
+            label: "model",
+            predictions: &d.base_predictions,
+        }]
+    } else {
+        vec![
+            Overlay {
+                label: "model as given",
+                predictions: &d.base_predictions,
+            },
+            Overlay {
+                label: "with the effects found",
+                predictions: &d.final_predictions,
+            },
+        ]
+    };
+    let (body, _) = comparison_section(campaign, &obs, &overlays, dir, force, "diagnosis_")?;
+    h.push_str("<h2>Where the model as given fails</h2>\n");
+    h.push_str(&cells_table(&d.cells, 12));
+    if !d.selected.is_empty() {
+        h.push_str("<h2>Where it still fails with the effects found</h2>\n");
+        h.push_str(&cells_table(
+            &super::cells::cells(&obs, &d.final_predictions),
+            12,
+        ));
+    }
+    h.push_str(&body);
+    h.push_str("</body></html>\n");
+    let html = dir.join("diagnosis.html");
+    crate::io::atomic_write(&html, h.as_bytes(), force)?;
+    Ok(html)
+}
