@@ -247,3 +247,56 @@ pub fn suite(first_seed: u64, per_effect: usize, pairs: usize, clean: usize) -> 
     }
     out
 }
+
+/// What the diagnosis made of one draw.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    pub draw: Draw,
+    pub verdict: String,
+    /// Effects selected, in order.
+    pub selected: Vec<String>,
+    pub baseline_error: f64,
+    pub noise_floor: f64,
+    /// Error (all records) after adding the first hidden effect to the identified model with
+    /// `augment`, if the verdict named it.
+    pub error_after_adding: Option<f64>,
+}
+
+/// Simulates the draw's campaign, identifies a model from it, diagnoses that model, and (when
+/// the verdict is right) adds the effect and measures the error.
+pub fn run(draw: Draw, threads: usize) -> anyhow::Result<Outcome> {
+    use crate::diagnose::{augment::augment, diagnose, DiagnoseOptions};
+    use crate::identify::{identify, IdentifyOptions};
+    let camp = crate::virtual_robot::simulate_campaign(&draw.truth, &draw.design)?;
+    let mut opts = IdentifyOptions {
+        threads: Some(threads),
+        ..IdentifyOptions::default()
+    };
+    if draw.diagonal_model {
+        let mut m = paper();
+        for p in ["a12", "a21", "b12", "b21"] {
+            m.set_value("pendulum", Binding::Global, p, 0.0);
+        }
+        opts.start_model = Some(m);
+    }
+    let ident = identify(&camp, &opts)?;
+    let dopts = DiagnoseOptions {
+        campaign_path: draw.design.name.clone(),
+        model_path: "identified.toml".into(),
+        threads,
+        ..DiagnoseOptions::default()
+    };
+    let d = diagnose(&camp, &ident.model, &dopts, &|_| {})?;
+    let error_after_adding = match draw.effects.first() {
+        Some(e) if *e == d.verdict => Some(augment(&camp, &ident.model, e, &dopts)?.error_after),
+        _ => None,
+    };
+    Ok(Outcome {
+        verdict: d.verdict.clone(),
+        selected: d.selected.iter().map(|s| s.0.clone()).collect(),
+        baseline_error: d.baseline_error,
+        noise_floor: d.noise_floor,
+        error_after_adding,
+        draw,
+    })
+}

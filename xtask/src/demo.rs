@@ -24,6 +24,7 @@ struct Summary {
     bode: PathBuf,
     closed_loop: PathBuf,
     closed_loop_x: Metrics,
+    diagnosis_loop: crate::diagnose::LoopSummary,
 }
 
 #[derive(Serialize)]
@@ -217,6 +218,9 @@ pub fn demo(out: &Path, force: bool, json: bool) -> Result<()> {
         ));
     }
 
+    say("5. The promise: compare, diagnose the missing effect, add it, watch the error fall");
+    let lp = crate::diagnose::demo_loop(&spec, &out.join("loop"), quiet)?;
+
     if json {
         let s = Summary {
             output: out.to_path_buf(),
@@ -226,6 +230,7 @@ pub fn demo(out: &Path, force: bool, json: bool) -> Result<()> {
             bode,
             closed_loop: cl,
             closed_loop_x: m.into(),
+            diagnosis_loop: lp,
         };
         println!("{}", serde_json::to_string_pretty(&s)?);
     }

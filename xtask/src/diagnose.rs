@@ -266,8 +266,12 @@ pub fn augment_cmd(
     Ok((out, a))
 }
 
-/// `cargo xtask history`.
-pub fn history_cmd(model: &Path, plot: Option<&Path>, force: bool, json: bool) -> Result<()> {
+/// The versions leading to `model` and the waterfall plot (written).
+fn history_plot(
+    model: &Path,
+    plot: Option<&Path>,
+    force: bool,
+) -> Result<(Vec<ledger::Entry>, bool, PathBuf)> {
     let (chain, edited) = ledger::history(model)?;
     let plot = plot.map(Path::to_path_buf).unwrap_or_else(|| {
         let stem = model
@@ -289,19 +293,25 @@ pub fn history_cmd(model: &Path, plot: Option<&Path>, force: bool, json: bool) -
         Some((floor, "noise floor")),
         force,
     )?;
+    Ok((chain, edited, plot))
+}
+
+/// `cargo xtask history`.
+pub fn history_cmd(model: &Path, plot: Option<&Path>, force: bool, json: bool) -> Result<()> {
+    let (chain, edited, plot) = history_plot(model, plot, force)?;
     if json {
         let v = serde_json::json!({"versions": chain, "edited_since": edited, "plot": plot});
         println!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(());
     }
     println!(
-        "{:<3} {:<36} {:<26} {:>9} {:>8} {:>9}  campaign",
+        "{:<3} {:<44} {:<20} {:>9} {:>8} {:>9}  campaign",
         "#", "model", "change", "error", "x floor", "change"
     );
     let mut prev: Option<f64> = None;
     for (k, e) in chain.iter().enumerate() {
         println!(
-            "{:<3} {:<36} {:<26} {:>9.4} {:>8.1} {:>9}  {}",
+            "{:<3} {:<44} {:<20} {:>9.4} {:>8.1} {:>9}  {}",
             k + 1,
             e.model,
             e.change,
@@ -324,4 +334,131 @@ pub fn history_cmd(model: &Path, plot: Option<&Path>, force: bool, json: bool) -
     }
     println!("waterfall -> {}", plot.display());
     Ok(())
+}
+
+/// What the demo's diagnosis loop did.
+#[derive(serde::Serialize)]
+pub struct LoopSummary {
+    pub campaign: PathBuf,
+    pub hidden: String,
+    pub verdict: String,
+    pub found: Vec<String>,
+    /// (model file, error) of each version, oldest first.
+    pub versions: Vec<(PathBuf, f64)>,
+    pub noise_floor: f64,
+    pub report: PathBuf,
+    pub history: PathBuf,
+}
+
+/// The demo's loop on a virtual SILO2 robot that has what the paper's model lacks: a 40 ms
+/// servo latency and a slowly drifting ZMP sensor (0.03 mm/s on y).
+pub fn demo_loop(paper: &zmp_models::ModelSpec, dir: &Path, quiet: bool) -> Result<LoopSummary> {
+    use zmp_models::{lookup, Axis, Binding, EffectInstance};
+    let say = |s: &str| {
+        if !quiet {
+            println!("{s}");
+        }
+    };
+    std::fs::create_dir_all(dir)?;
+    let mut truth = paper.clone();
+    truth.name = Some("virtual SILO2 with hidden effects".into());
+    for a in Axis::BOTH {
+        truth.insert(EffectInstance {
+            info: lookup("time_delay").expect("registered"),
+            binding: Binding::Axis(a),
+            values: vec![0.04],
+        });
+    }
+    truth.insert(EffectInstance {
+        info: lookup("sensor_drift").expect("registered"),
+        binding: Binding::Axis(Axis::Y),
+        values: vec![0.0, 3e-5],
+    });
+    let hidden = "time_delay 40 ms on both servos; sensor_drift 0.03 mm/s on zmp_y".to_string();
+    let camp_dir = dir.join("campaign");
+    let design = zmp_validation::virtual_robot::ExperimentDesign {
+        name: "virtual-silo2-hidden".into(),
+        seed: 7,
+        ..zmp_validation::virtual_robot::ExperimentDesign::reference()
+    };
+    let camp = crate::simulate::simulate(&truth, &design, &camp_dir, true, quiet)?;
+    say(&format!(
+        "   a virtual SILO2 with effects the paper's model lacks (hidden from the tools): {} records -> {}",
+        camp.records.len(),
+        camp_dir.display()
+    ));
+    // Identify (the seed's structure).
+    let opts = zmp_validation::identify::IdentifyOptions {
+        campaign_path: Some(camp_dir.clone()),
+        ..Default::default()
+    };
+    let ident = zmp_validation::identify::identify(&camp, &opts)?;
+    let model = dir.join("identified.toml");
+    zmp_validation::identify::write_model(&ident, &model, true)?;
+    let dopts = options(&camp_dir, &model);
+    crate::identify::record_in_ledger(
+        &camp,
+        &ident.model,
+        &model,
+        None,
+        "identified",
+        &dopts,
+        quiet,
+    );
+    // Compare and diagnose.
+    let d = run_diagnosis(&camp, &ident.model, &dopts, quiet)?;
+    let report = write_diagnosis_report(&camp, &d, &dir.join("diagnosis"), true)?;
+    let found: Vec<String> = d.selected.iter().map(|s| s.0.clone()).collect();
+    say(&format!(
+        "   identified model: error {:.4} = {:.1}x the noise floor; verdict: {}",
+        d.baseline_error,
+        d.baseline_error / d.noise_floor,
+        d.verdict
+    ));
+    for f in d.findings.iter().filter(|f| f.significant) {
+        say(&format!("   - {}: {}", f.effect, f.evidence));
+    }
+    // Add what was found, one effect at a time.
+    let mut current = model.clone();
+    let mut versions = vec![(model.clone(), d.baseline_error)];
+    for e in &found {
+        let spec = load_model(&current)?;
+        let a = augment(&camp, &spec, e, &options(&camp_dir, &current))?;
+        let next = augmented_path(&current, e);
+        atomic_write(&next, a.spec.to_toml().as_bytes(), true)?;
+        ledger::append(
+            &next,
+            Some(&current),
+            &a.change,
+            &dopts.campaign_path,
+            a.error_after,
+            a.noise_floor,
+        )?;
+        say(&format!(
+            "   + {e}: error {:.4} -> {:.4} ({:.1}x the floor) -> {}",
+            a.error_before,
+            a.error_after,
+            a.error_after / a.noise_floor,
+            next.display()
+        ));
+        versions.push((next.clone(), a.error_after));
+        current = next;
+    }
+    let history = dir.join("history.svg");
+    if quiet {
+        history_plot(&current, Some(&history), true)?;
+    } else {
+        history_cmd(&current, Some(&history), true, false)?;
+    }
+    say(&format!("   report -> {}", report.display()));
+    Ok(LoopSummary {
+        campaign: camp_dir,
+        hidden,
+        verdict: d.verdict,
+        found,
+        versions,
+        noise_floor: d.noise_floor,
+        report,
+        history,
+    })
 }

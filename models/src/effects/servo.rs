@@ -181,6 +181,11 @@ static DF_CACHE: LazyLock<Mutex<HashMap<[u64; 7], Complex64>>> =
 /// Entries kept before the cache starts afresh.
 const DF_CACHE_MAX: usize = 200_000;
 
+/// Forgets every cached describing function (a new campaign or a timed run starts afresh).
+pub fn clear_describing_function_cache() {
+    DF_CACHE.lock().unwrap_or_else(|p| p.into_inner()).clear();
+}
+
 fn cached(key: [f64; 7], compute: impl FnOnce() -> Complex64) -> Complex64 {
     let k = key.map(f64::to_bits);
     let lock = || DF_CACHE.lock().unwrap_or_else(|p| p.into_inner());

@@ -137,6 +137,10 @@ pub fn augment(
             model: opts.model_path.clone(),
             message: format!("the fit of {effect} failed"),
         })?;
+    // The model written is fitted to convergence, not to the diagnosis's screening budget.
+    let fitted = fit_structure(&fitted.spec, &fitted.frees, fitted.own, &refs)
+        .filter(|f| f.cost <= fitted.cost)
+        .unwrap_or(fitted);
     let (after, _) = error_of(&fitted.spec, &refs, opts)?;
     let mut spec = fitted.spec.clone();
     record_stderr(&mut spec, &fitted);

@@ -314,7 +314,7 @@ fn acceleration_saturation(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
 fn sensor_lowpass(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     let mut out = Vec::new();
     for bindings in axis_variants(r) {
-        for f in [1.0, 4.0] {
+        for f in [0.5, 1.0, 4.0] {
             let wc = f * r.omega_max;
             let s = with(spec, "sensor_lowpass", &bindings, &[wc]);
             out.push((

@@ -88,7 +88,27 @@ fn fit_from(
 /// whose own parameters are fitted first with the core fixed.
 pub fn fit(effect: &str, starts: &[Start], obs: &[&Observation]) -> Option<Fitted> {
     let costly = is_costly(effect);
-    let best = starts
+    // A model identified without the effect has absorbed part of it into the bandwidth (a
+    // delay or a sensor filter into a slower, more damped low-pass): the cheap candidates also
+    // start from a faster, less damped one, so that the fit does not stay in that valley.
+    let mut all: Vec<Start> = starts.to_vec();
+    if !costly {
+        for (s, f) in starts {
+            let mut fast = s.clone();
+            for a in zmp_models::Axis::BOTH {
+                let b = zmp_models::Binding::Axis(a);
+                if let (Some(wn), Some(z)) = (
+                    s.value("tracking_lowpass", b, "omega_n"),
+                    s.value("tracking_lowpass", b, "zeta"),
+                ) {
+                    fast.set_value("tracking_lowpass", b, "omega_n", 1.5 * wn);
+                    fast.set_value("tracking_lowpass", b, "zeta", (0.7 * z).max(0.5));
+                }
+            }
+            all.push((fast, f.clone()));
+        }
+    }
+    let best = all
         .iter()
         .filter_map(|(s, f)| {
             let mut frees = f.clone();

@@ -114,6 +114,9 @@ pub fn sig(v: f64) -> String {
     if v == 0.0 || !v.is_finite() {
         return format!("{v}");
     }
+    if v.abs() < 1e-3 || v.abs() >= 1e6 {
+        return format!("{v:.3e}");
+    }
     let d = (3 - v.abs().log10().floor() as i32).max(0) as usize;
     format!("{v:.d$}")
 }

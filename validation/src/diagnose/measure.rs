@@ -13,7 +13,7 @@ use num_complex::Complex64;
 use zmp_models::{Axis, Binding, Channel, ModelSpec, Plant};
 
 /// Internal step used to evaluate models in the diagnosis, s.
-pub const EVAL_STEP: f64 = 0.002;
+pub const EVAL_STEP: f64 = 0.001;
 
 /// The model's steady-state prediction for one record.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -455,6 +455,7 @@ measure for the estimation noise of the measured components alone (from the resi
 record's harmonic fit): what a perfect model would score.</p>";
 
 /// Comparison report of `campaign` against one model; returns the HTML file.
+#[allow(clippy::too_many_arguments)] // the report's inputs, all distinct
 pub fn write_compare_report(
     campaign: &Campaign,
     campaign_name: &str,

@@ -265,6 +265,7 @@ pub fn diagnose(
     opts: &DiagnoseOptions,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<Diagnosis, DiagnoseError> {
+    zmp_models::effects::servo::clear_describing_function_cache();
     let (observations, skipped) = observe_campaign(campaign, opts.threads);
     let obs: Vec<&Observation> = observations.iter().collect();
     check_inputs(&obs, model, opts)?;
@@ -307,9 +308,12 @@ pub fn diagnose(
             if round == 0 {
                 tried = scored.iter().map(|s| (s.effect.clone(), s.error)).collect();
             }
-            let Some(best) = scored.first().cloned() else {
+            let Some(best) = prefer_simpler(&scored, floor).cloned() else {
                 break;
             };
+            let scored: Vec<Scored> = std::iter::once(best.clone())
+                .chain(scored.into_iter().filter(|s| s.effect != best.effect))
+                .collect();
             let reference_before = reference;
             if !significant(reference, best.error, floor) {
                 if round == 0 {
@@ -355,7 +359,7 @@ pub fn diagnose(
         }
     }
     // Findings ranked: the selected effects first (in selection order), then the others.
-    findings.sort_by(|a, b| b.significant.cmp(&a.significant));
+    findings.sort_by_key(|f| std::cmp::Reverse(f.significant));
     if verdict == "unexplained" {
         let where_ = significant_cells(base_cells.clone());
         let mut text = format!(
@@ -444,6 +448,34 @@ pub fn diagnose(
         observations,
         tried,
     })
+}
+
+/// Physical parameters an effect adds per axis (its complexity for the tie-break).
+pub fn complexity(effect: &str) -> usize {
+    match effect {
+        "structural_mode" => 2,
+        "operating_point_dependence" | "cross_coupling" => 4,
+        _ => 1,
+    }
+}
+
+/// The best candidate, except that a simpler one wins a near tie: its held-out squared error
+/// within a quarter of the noise floor's square (about three standard errors of a campaign's
+/// mean squared error) or a quarter of the best one's excess.
+pub fn prefer_simpler(scored: &[Scored], floor: f64) -> Option<&Scored> {
+    let best = scored.first()?;
+    let e2 = best.error * best.error;
+    let margin = 0.25 * (floor * floor).max(e2 - floor * floor);
+    scored
+        .iter()
+        .filter(|s| complexity(&s.effect) < complexity(&best.effect))
+        .filter(|s| s.error * s.error <= e2 + margin)
+        .min_by(|a, b| {
+            complexity(&a.effect)
+                .cmp(&complexity(&b.effect))
+                .then(a.error.total_cmp(&b.error))
+        })
+        .or(Some(best))
 }
 
 fn finding(
