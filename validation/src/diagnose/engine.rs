@@ -92,7 +92,12 @@ pub fn fit(effect: &str, starts: &[Start], obs: &[&Observation]) -> Option<Fitte
     // delay or a sensor filter into a slower, more damped low-pass): the cheap candidates also
     // start from a faster, less damped one, so that the fit does not stay in that valley.
     let mut all: Vec<Start> = starts.to_vec();
-    if !costly {
+    let linear_base = starts.first().is_some_and(|(s, _)| {
+        s.effects
+            .iter()
+            .all(|e| e.info.linear || e.info.kind == effect)
+    });
+    if !costly && linear_base {
         for (s, f) in starts {
             let mut fast = s.clone();
             for a in zmp_models::Axis::BOTH {

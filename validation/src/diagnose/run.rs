@@ -21,8 +21,9 @@ use zmp_models::{Axis, Binding, Channel, ModelSpec};
 /// Format name of the JSON report.
 pub const DIAGNOSIS_FORMAT: &str = "zmp-diagnosis/1";
 
-/// Effects added at most by forward selection.
-pub const MAX_EFFECTS: usize = 3;
+/// Effects added at most by forward selection (a third round on top of a nonlinear pair
+/// would simulate describing functions for every candidate).
+pub const MAX_EFFECTS: usize = 2;
 
 #[derive(Debug, thiserror::Error)]
 pub enum DiagnoseError {
