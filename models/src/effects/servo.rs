@@ -180,24 +180,36 @@ pub fn servo_describing_function(
     omega: f64,
     amplitude: f64,
 ) -> Complex64 {
-    let run = |limits: &mut [Box<dyn Effect>]| -> Complex64 {
-        let mut servo = Servo::new(omega_n, zeta, h);
-        servo.reset(0.0);
-        let period = 2.0 * std::f64::consts::PI / omega;
-        let slowest = TrackingLowpass { omega_n, zeta }.slowest_time_constant();
-        let settle = (8.0 * slowest).max(3.0 * period);
-        let n_settle = (settle / h).ceil() as usize;
-        let per = (period / h).round().max(8.0) as usize;
-        let n_max = n_settle + (per * MAX_SETTLE_PERIODS).min(MAX_SETTLE_STEPS);
-        let [x] = steady_first_harmonics(omega, h, n_settle, n_max, |k| {
-            let t = k as f64 * h;
-            [servo.step(amplitude * (omega * t).sin(), limits).position]
-        });
-        x / amplitude
-    };
-    let with = run(limits);
-    let without = run(&mut []);
+    let with = servo_first_harmonic(omega_n, zeta, h, limits, omega, amplitude);
+    let without = servo_first_harmonic(omega_n, zeta, h, &mut [], omega, amplitude);
     with / without
+}
+
+/// Steady-state first harmonic of the servo position with `limits` (none: the linear servo),
+/// divided by `amplitude`, for a reference sine of `amplitude` at `omega`, simulated with step
+/// `h`. [`servo_describing_function`] is its ratio with and without the limits; a caller that
+/// evaluates many limits at one `(omega, amplitude)` can compute the linear run once.
+pub fn servo_first_harmonic(
+    omega_n: f64,
+    zeta: f64,
+    h: f64,
+    limits: &mut [Box<dyn Effect>],
+    omega: f64,
+    amplitude: f64,
+) -> Complex64 {
+    let mut servo = Servo::new(omega_n, zeta, h);
+    servo.reset(0.0);
+    let period = 2.0 * std::f64::consts::PI / omega;
+    let slowest = TrackingLowpass { omega_n, zeta }.slowest_time_constant();
+    let settle = (8.0 * slowest).max(3.0 * period);
+    let n_settle = (settle / h).ceil() as usize;
+    let per = (period / h).round().max(8.0) as usize;
+    let n_max = n_settle + (per * MAX_SETTLE_PERIODS).min(MAX_SETTLE_STEPS);
+    let [x] = steady_first_harmonics(omega, h, n_settle, n_max, |k| {
+        let t = k as f64 * h;
+        [servo.step(amplitude * (omega * t).sin(), limits).position]
+    });
+    x / amplitude
 }
 
 #[cfg(test)]
