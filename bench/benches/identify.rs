@@ -7,29 +7,7 @@
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-use zmp_models::{Axis, Binding, EffectInstance, ModelSpec};
-use zmp_validation::campaign::{read_campaign, write_campaign};
-use zmp_validation::identify::{identify, IdentifyOptions};
-use zmp_validation::virtual_robot::{simulate_campaign, ExperimentDesign};
-
-fn campaign_dir(tmp: &Path) -> PathBuf {
-    let mut spec = ModelSpec::parse(
-        include_str!("../../models/params/silo2-paper.toml"),
-        "silo2-paper.toml",
-    )
-    .expect("paper model");
-    for axis in Axis::BOTH {
-        spec.insert(EffectInstance {
-            info: zmp_models::lookup("acceleration_saturation").expect("registered"),
-            binding: Binding::Axis(axis),
-            values: vec![1.2],
-        });
-    }
-    let camp = simulate_campaign(&spec, &ExperimentDesign::reference()).expect("simulate");
-    let dir = tmp.join("virtual-silo2");
-    write_campaign(&dir, &camp, true).expect("write campaign");
-    dir
-}
+use zmp_bench::identify::{pipeline, write_reference_campaign};
 
 fn python() -> PathBuf {
     std::env::var_os("ZMP_PYTHON")
@@ -40,15 +18,9 @@ fn python() -> PathBuf {
         })
 }
 
-fn pipeline(dir: &Path) -> f64 {
-    let camp = read_campaign(dir).expect("read");
-    let id = identify(&camp, &IdentifyOptions::default()).expect("identify");
-    id.a[0][0].value
-}
-
 fn bench(c: &mut Criterion) {
     let tmp = tempfile::tempdir().expect("tempdir");
-    let dir = campaign_dir(tmp.path());
+    let dir = write_reference_campaign(tmp.path());
     let mut g = c.benchmark_group("identify");
     g.sample_size(10).measurement_time(Duration::from_secs(8));
     g.bench_function("read_and_fit_168", |b| b.iter(|| black_box(pipeline(&dir))));

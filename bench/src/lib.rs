@@ -112,3 +112,41 @@ rate = 1e-5          # m/s
         ctrl
     }
 }
+
+/// The identification benchmark's campaign and pipeline, shared by the criterion bench
+/// `benches/identify.rs` and the instruction-count binary `src/bin/identify_count.rs`.
+pub mod identify {
+    use std::path::{Path, PathBuf};
+    use zmp_models::{Axis, Binding, EffectInstance, ModelSpec};
+    use zmp_validation::campaign::{read_campaign, write_campaign};
+    use zmp_validation::identify::{identify, IdentifyOptions};
+    use zmp_validation::virtual_robot::{simulate_campaign, ExperimentDesign};
+
+    /// Simulates the reference virtual SILO2 campaign (paper model with an acceleration limit
+    /// of 1.2 m/s2) and writes it to `parent/virtual-silo2`; returns that folder.
+    pub fn write_reference_campaign(parent: &Path) -> PathBuf {
+        let mut spec = ModelSpec::parse(
+            include_str!("../../models/params/silo2-paper.toml"),
+            "silo2-paper.toml",
+        )
+        .expect("paper model");
+        for axis in Axis::BOTH {
+            spec.insert(EffectInstance {
+                info: zmp_models::lookup("acceleration_saturation").expect("registered"),
+                binding: Binding::Axis(axis),
+                values: vec![1.2],
+            });
+        }
+        let camp = simulate_campaign(&spec, &ExperimentDesign::reference()).expect("simulate");
+        let dir = parent.join("virtual-silo2");
+        write_campaign(&dir, &camp, true).expect("write campaign");
+        dir
+    }
+
+    /// The measured pipeline: read the campaign from disk and identify it; returns `a11`.
+    pub fn pipeline(dir: &Path) -> f64 {
+        let camp = read_campaign(dir).expect("read");
+        let id = identify(&camp, &IdentifyOptions::default()).expect("identify");
+        id.a[0][0].value
+    }
+}

@@ -38,6 +38,7 @@ use std::f64::consts::PI;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use zmp_models::effect::BuildContext;
+use zmp_models::effects::servo::servo_first_harmonic;
 use zmp_models::{Axis, Binding, Channel, EffectInstance, ModelSpec, Plant};
 
 /// The SILO2 values of the first seed (section 6), for comparison in reports.
@@ -491,6 +492,46 @@ pub fn analyse_records(
     out
 }
 
+/// Worker threads for `opts`: `opts.threads`, else the available cores.
+fn worker_count(opts: &IdentifyOptions) -> usize {
+    opts.threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |w| w.get()))
+        .max(1)
+}
+
+/// `(0..n).map(job)` on up to `threads` scoped threads (jobs handed out one at a time), results
+/// in index order.
+fn parallel_map<T: Send>(n: usize, threads: usize, job: impl Fn(usize) -> T + Sync) -> Vec<T> {
+    let workers = threads.clamp(1, n.max(1));
+    if workers == 1 {
+        return (0..n).map(job).collect();
+    }
+    let next = AtomicUsize::new(0);
+    let mut out: Vec<(usize, T)> = std::thread::scope(|s| {
+        let handles: Vec<_> = (0..workers)
+            .map(|_| {
+                s.spawn(|| {
+                    let mut mine = Vec::new();
+                    loop {
+                        let k = next.fetch_add(1, Ordering::Relaxed);
+                        if k >= n {
+                            break;
+                        }
+                        mine.push((k, job(k)));
+                    }
+                    mine
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+            .collect()
+    });
+    out.sort_by_key(|r| r.0);
+    out.into_iter().map(|r| r.1).collect()
+}
+
 /// Identifies the campaign (see the module docs).
 pub fn identify(
     campaign: &Campaign,
@@ -624,7 +665,7 @@ pub fn identify_with_progress(
                 .demanded_acceleration
                 .push((c, r.amplitude * r.omega * r.omega * h));
         }
-        let (limit, se) = estimate_limit(&records, &saturated, &p, &factors);
+        let (limit, se) = estimate_limit(&records, &saturated, &p, &factors, worker_count(opts));
         saturation.limit = limit;
         saturation.limit_stderr = se;
         warnings.push(format!(
@@ -867,6 +908,7 @@ fn estimate_limit(
     sat: &[usize],
     p: &[f64; NP],
     factors: &[[Complex64; 2]],
+    threads: usize,
 ) -> (Option<f64>, Option<f64>) {
     let info = zmp_models::lookup("acceleration_saturation").expect("registered effect");
     let h = zmp_models::DEFAULT_STEP;
@@ -894,11 +936,25 @@ fn estimate_limit(
             keys.push(k);
         }
     }
+    // The describing function of the limit at each key is the servo's first harmonic with the
+    // limit over the linear servo's (what `frequency_response` of the effect computes); the
+    // linear runs do not depend on the limit, so they are done once, and the runs of one
+    // evaluation are shared out over the worker threads (each one is a long simulation).
+    let first_harmonics = |limit: Option<f64>| -> Vec<Complex64> {
+        let run = |k: usize| {
+            let (w, a) = keys[k];
+            let mut limits: Vec<Box<dyn zmp_models::Effect>> =
+                limit.iter().map(|&l| (info.build)(&ctx, &[l])).collect();
+            servo_first_harmonic(p[8], p[9], h, &mut limits, w, a)
+        };
+        parallel_map(keys.len(), threads, run)
+    };
+    let linear = first_harmonics(None);
     let chi2 = |limit: f64| -> f64 {
-        let e = (info.build)(&ctx, &[limit]);
-        let nf: Vec<Complex64> = keys
+        let nf: Vec<Complex64> = first_harmonics(Some(limit))
             .iter()
-            .map(|&(w, a)| e.frequency_response(w, a))
+            .zip(&linear)
+            .map(|(with, without)| with / without)
             .collect();
         let mut s = 0.0;
         for &c in sat {
@@ -924,34 +980,18 @@ fn estimate_limit(
         }
         s
     };
-    let (mut lo, mut hi) = ((0.05 * top).ln(), (1.2 * top).ln());
-    let g = (5f64.sqrt() - 1.0) / 2.0;
-    let mut x1 = hi - g * (hi - lo);
-    let mut x2 = lo + g * (hi - lo);
-    let mut f1 = chi2(x1.exp());
-    let mut f2 = chi2(x2.exp());
-    for _ in 0..40 {
-        if f1 < f2 {
-            hi = x2;
-            x2 = x1;
-            f2 = f1;
-            x1 = hi - g * (hi - lo);
-            f1 = chi2(x1.exp());
-        } else {
-            lo = x1;
-            x1 = x2;
-            f1 = f2;
-            x2 = lo + g * (hi - lo);
-            f2 = chi2(x2.exp());
-        }
-        if hi - lo < 2e-4 {
-            break;
-        }
-    }
-    let l = (0.5 * (lo + hi)).exp();
-    // Standard error from the curvature of chi-square, scaled by the reduced chi-square.
+    // Brent's minimisation over log(limit), to within 1e-4 (relative) of the limit: each
+    // evaluation is a long saturated simulation, and parabolic steps need fewer of them than
+    // golden sections alone.
+    let (x, c0) = brent_minimise((0.05 * top).ln(), (1.2 * top).ln(), 5e-5, 60, |x| {
+        chi2(x.exp())
+    });
+    let l = x.exp();
+    // Standard error from the curvature of chi-square, scaled by the reduced chi-square (the
+    // two side evaluations at once).
     let d = 0.01 * l;
-    let (cm, c0, cp) = (chi2(l - d), chi2(l), chi2(l + d));
+    let side = parallel_map(2, threads, |i| chi2(if i == 0 { l - d } else { l + d }));
+    let (cm, cp) = (side[0], side[1]);
     let curv = (cm - 2.0 * c0 + cp) / (d * d);
     let dof = (2 * sat.len()).saturating_sub(1).max(1) as f64;
     let se = if curv > 0.0 {
@@ -960,6 +1000,87 @@ fn estimate_limit(
         None
     };
     (Some(l), se)
+}
+
+/// Brent's method: a minimum of `f` on `[a, b]` to within about `2 tol` (absolute), and `f`
+/// there, by
+/// parabolic interpolation through the best three points where that step is safe and golden
+/// sections otherwise (Brent 1973, "Algorithms for Minimization without Derivatives", ch. 5).
+fn brent_minimise(
+    mut a: f64,
+    mut b: f64,
+    tol: f64,
+    max_evals: usize,
+    f: impl Fn(f64) -> f64,
+) -> (f64, f64) {
+    const CGOLD: f64 = 0.381_966_011_250_105_1; // (3 - sqrt 5) / 2
+    let mut x = a + CGOLD * (b - a);
+    let (mut w, mut v) = (x, x);
+    let mut fx = f(x);
+    let (mut fw, mut fv) = (fx, fx);
+    // The last step and the one before it.
+    let (mut d, mut e) = (0.0f64, 0.0f64);
+    for _ in 1..max_evals {
+        let xm = 0.5 * (a + b);
+        if (x - xm).abs() <= 2.0 * tol - 0.5 * (b - a) {
+            break;
+        }
+        let mut golden = true;
+        if e.abs() > tol {
+            // Parabola through (x, fx), (w, fw), (v, fv): its minimum at x + p / q.
+            let r = (x - w) * (fx - fv);
+            let mut q = (x - v) * (fx - fw);
+            let mut p = (x - v) * q - (x - w) * r;
+            q = 2.0 * (q - r);
+            if q > 0.0 {
+                p = -p;
+            }
+            q = q.abs();
+            // Accept it if it lies inside [a, b] and moves less than half the step before last.
+            if p.abs() < (0.5 * q * e).abs() && p > q * (a - x) && p < q * (b - x) {
+                e = d;
+                d = p / q;
+                let u = x + d;
+                if u - a < 2.0 * tol || b - u < 2.0 * tol {
+                    d = tol.copysign(xm - x);
+                }
+                golden = false;
+            }
+        }
+        if golden {
+            e = if x >= xm { a - x } else { b - x };
+            d = CGOLD * e;
+        }
+        let u = if d.abs() >= tol {
+            x + d
+        } else {
+            x + tol.copysign(d)
+        };
+        let fu = f(u);
+        if fu <= fx {
+            if u >= x {
+                a = x;
+            } else {
+                b = x;
+            }
+            (v, fv) = (w, fw);
+            (w, fw) = (x, fx);
+            (x, fx) = (u, fu);
+        } else {
+            if u < x {
+                a = u;
+            } else {
+                b = u;
+            }
+            if fu <= fw || w == x {
+                (v, fv) = (w, fw);
+                (w, fw) = (u, fu);
+            } else if fu <= fv || v == x || v == w {
+                (v, fv) = (u, fu);
+            }
+        }
+    }
+    (x, fx)
 }
 
 /// Step 7: the uncertainty database and the weights.
@@ -1234,4 +1355,58 @@ pub fn summary_json(ident: &Identification) -> serde_json::Value {
         "excluded": excluded,
         "warnings": ident.warnings,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `estimate_limit` splits the effect's describing function into a run with the limit and
+    /// a linear run it does once: the ratio must be the effect's own `frequency_response`.
+    #[test]
+    fn limit_runs_match_the_effects_describing_function() {
+        let info = zmp_models::lookup("acceleration_saturation").expect("registered effect");
+        let h = zmp_models::DEFAULT_STEP;
+        let (wn, zeta) = (28.0, 0.9);
+        let ctx = BuildContext {
+            h,
+            binding: Binding::Axis(Axis::X),
+            servo: Some((wn, zeta)),
+        };
+        for (limit, w, a) in [(1.2, 6.0, 0.05), (0.8, 12.0, 0.02), (3.0, 2.0, 0.01)] {
+            let e = (info.build)(&ctx, &[limit]);
+            let mut limits = vec![(info.build)(&ctx, &[limit])];
+            let with = servo_first_harmonic(wn, zeta, h, &mut limits, w, a);
+            let without = servo_first_harmonic(wn, zeta, h, &mut [], w, a);
+            // Equal up to rounding: the effect computes its linear run at unit amplitude.
+            let (df, own) = (with / without, e.frequency_response(w, a));
+            assert!((df - own).norm() <= 1e-12 * own.norm(), "{df} vs {own}");
+        }
+    }
+
+    #[test]
+    fn brent_finds_minima() {
+        let calls = std::cell::Cell::new(0);
+        let f = |x: f64| {
+            calls.set(calls.get() + 1);
+            (x - 0.3).powi(2) * (1.0 + 0.5 * x.sin()) + 2.0
+        };
+        let (x, _) = brent_minimise(-3.0, 3.0, 5e-5, 60, f);
+        assert!((x - 0.3).abs() < 2e-4, "{x}");
+        assert!(calls.get() < 20, "{} evaluations", calls.get());
+        // A minimum at the end of the interval and a flat function.
+        let (x, _) = brent_minimise(0.0, 1.0, 5e-5, 60, |x| -x);
+        assert!(x > 1.0 - 2e-4, "{x}");
+        let (x, _) = brent_minimise(0.0, 1.0, 5e-5, 60, |_| 1.0);
+        assert!((0.0..=1.0).contains(&x));
+    }
+
+    #[test]
+    fn parallel_map_keeps_order() {
+        for threads in [1, 2, 5] {
+            let v = parallel_map(11, threads, |k| k * k);
+            assert_eq!(v, (0..11).map(|k| k * k).collect::<Vec<_>>());
+        }
+        assert!(parallel_map(0, 2, |k| k).is_empty());
+    }
 }

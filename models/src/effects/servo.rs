@@ -244,8 +244,11 @@ const FAST_PERIODS: usize = 40;
 /// Relative change of the one-period phasor at which the servo counts as periodic.
 const FAST_SETTLED_REL: f64 = 1e-8;
 
-/// Steady-state first harmonic of the servo position over the reference's amplitude.
-fn servo_first_harmonic(
+/// Steady-state first harmonic of the servo position with `limits` (none: the linear servo)
+/// over the reference's `amplitude`: [`servo_describing_function`] is its ratio with and
+/// without the limits; a caller that evaluates many limits at one `(omega, amplitude)` can
+/// compute the linear run once.
+pub fn servo_first_harmonic(
     omega_n: f64,
     zeta: f64,
     h: f64,

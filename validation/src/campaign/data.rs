@@ -139,37 +139,56 @@ impl Cells for Line<'_> {
     }
 }
 
-/// Splits a simple file into lines and cells in one pass.
+/// Splits a simple file into lines and cells. Once the header is known, each data row is first
+/// tried by [`Parser::fast_row`], which parses the cells straight from the bytes; a row it does
+/// not take (anything but plain decimals where numbers are expected, a wrong cell count, ...)
+/// is split on `,` and goes through the general [`Parser::feed`], which also reports errors.
 fn drive_simple(bytes: &[u8], parser: &mut Parser) -> Result<(), CampaignError> {
     let mut ends: Vec<usize> = Vec::with_capacity(32);
     let mut start = 0;
     let mut line = 1;
-    let mut feed = |start: usize, end: usize, ends: &mut Vec<usize>, line: usize| {
-        let result = if end == start {
-            Ok(()) // a blank line
-        } else {
-            ends.push(end);
-            parser.feed(line, &Line { bytes, start, ends })
-        };
-        ends.clear();
-        result
-    };
-    for (i, &b) in bytes.iter().enumerate() {
-        if b == b',' {
-            ends.push(i);
-        } else if b == b'\n' {
-            let end = if i > start && bytes[i - 1] == b'\r' {
-                i - 1
-            } else {
-                i
-            };
-            feed(start, end, &mut ends, line)?;
-            line += 1;
-            start = i + 1;
+    while start < bytes.len() {
+        if parser.header_line.is_some() {
+            if let Some(next) = parser.fast_row(bytes, start, line) {
+                start = next;
+                line += 1;
+                continue;
+            }
         }
-    }
-    if start < bytes.len() {
-        feed(start, bytes.len(), &mut ends, line)?;
+        let newline = bytes[start..].iter().position(|&b| b == b'\n');
+        let (end, next) = match newline {
+            Some(k) => {
+                let i = start + k;
+                let end = if i > start && bytes[i - 1] == b'\r' {
+                    i - 1
+                } else {
+                    i
+                };
+                (end, i + 1)
+            }
+            None => (bytes.len(), bytes.len()),
+        };
+        if end > start {
+            ends.clear();
+            ends.extend(
+                bytes[start..end]
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, &b)| b == b',')
+                    .map(|(k, _)| start + k),
+            );
+            ends.push(end);
+            parser.feed(
+                line,
+                &Line {
+                    bytes,
+                    start,
+                    ends: &ends,
+                },
+            )?;
+        } // else a blank line
+        line += 1;
+        start = next;
     }
     Ok(())
 }
@@ -204,6 +223,15 @@ fn drive_csv(bytes: &[u8], parser: &mut Parser) -> Result<(), CampaignError> {
             }
         }
     }
+}
+
+/// Length of the cell at the start of `rest` in a simple file: up to the next `,` or line end
+/// (`\n`, or the `\r` of a `\r\n`).
+#[inline]
+fn cell_len(rest: &[u8]) -> usize {
+    rest.iter()
+        .position(|&b| b == b',' || b == b'\n' || b == b'\r')
+        .unwrap_or(rest.len())
 }
 
 /// Turns rows into columns, whichever way the rows were split.
@@ -373,6 +401,72 @@ impl<'a> Parser<'a> {
         Ok(())
     }
 
+    /// Parses the data row that starts at `bytes[start]` if every cell to keep is a plain
+    /// decimal that [`fast_f64`] takes, the row has exactly the header's cell count and it ends
+    /// with `\n`, `\r\n` or the end of the file; returns where the next line starts. Otherwise
+    /// leaves the parser as it was and returns `None` (the general path then handles the row,
+    /// errors included). Cells of ignored and non-numeric extra columns are skipped unread.
+    #[inline]
+    fn fast_row(&mut self, bytes: &[u8], start: usize, line: usize) -> Option<usize> {
+        let last = self.slots.len() - 1;
+        let mut p = start;
+        for (j, slot) in self.slots.iter().enumerate() {
+            let target = match *slot {
+                Slot::Required(k) => Some(&mut self.cols[k]),
+                Slot::Extra(e) if self.extras[e].numeric => Some(&mut self.extras[e].values),
+                _ => None,
+            };
+            match target {
+                Some(col) => match fast_f64_prefix(&bytes[p..]) {
+                    Some((v, len)) => {
+                        col.push(v);
+                        p += len;
+                    }
+                    None => {
+                        // Not a short decimal (e.g. 17 significant digits): the whole cell
+                        // through `str::parse`, as the general path would.
+                        let len = cell_len(&bytes[p..]);
+                        match parse_cell(&bytes[p..p + len]) {
+                            Ok(v) => col.push(v),
+                            Err(_) => return self.undo_row(),
+                        }
+                        p += len;
+                    }
+                },
+                None => p += cell_len(&bytes[p..]),
+            }
+            // The cell must end here: with a comma before the last cell, with the line after it.
+            if j < last {
+                if bytes.get(p) != Some(&b',') {
+                    return self.undo_row();
+                }
+                p += 1;
+            }
+        }
+        let next = match bytes.get(p) {
+            None => p,
+            Some(b'\n') => p + 1,
+            Some(b'\r') if bytes.get(p + 1) == Some(&b'\n') => p + 2,
+            _ => return self.undo_row(),
+        };
+        self.last_line = line;
+        self.lines.push(self.n, line);
+        self.n += 1;
+        Some(next)
+    }
+
+    /// Drops the values a failed [`Parser::fast_row`] pushed.
+    #[cold]
+    fn undo_row(&mut self) -> Option<usize> {
+        for col in &mut self.cols {
+            col.truncate(self.n);
+        }
+        for extra in self.extras.iter_mut().filter(|e| e.numeric) {
+            extra.values.truncate(self.n);
+        }
+        None
+    }
+
     fn finish(
         self,
         meta: RecordMeta,
@@ -458,63 +552,84 @@ const POW10: [f64; 23] = [
 /// the caller then falls back to `str::parse`.
 #[inline]
 fn fast_f64(s: &[u8]) -> Option<f64> {
-    let (neg, mut i) = match *s.first()? {
-        b'-' => (true, 1),
-        b'+' => (false, 1),
+    match fast_f64_prefix(s) {
+        Some((v, len)) if len == s.len() => Some(v),
+        _ => None,
+    }
+}
+
+/// [`fast_f64`] on the longest prefix of `s` shaped like a decimal
+/// (`[+-]digits[.digits][(e|E)[+-]digits]`); returns the value and the prefix length. `None`
+/// when the prefix has no digit, a mantissa of more than 19 digits or beyond 2^53, an exponent
+/// marker without digits or with more than 4, or a power of ten that is not exact. A cell is
+/// taken by the fast path exactly when this accepts a prefix that is the whole cell.
+#[inline(always)]
+fn fast_f64_prefix(s: &[u8]) -> Option<(f64, usize)> {
+    let (neg, mut i) = match s.first() {
+        Some(b'-') => (true, 1),
+        Some(b'+') => (false, 1),
         _ => (false, 0),
     };
+    // The mantissa's digits and the decimal point in one pass. Wrapping: a mantissa of more
+    // than 19 digits is rejected below, and up to 19 digits fit in a u64.
+    let start = i;
     let mut mantissa: u64 = 0;
-    let mut digits = 0usize;
-    let mut exp: i32 = 0;
+    let mut dot = usize::MAX;
     while let Some(&c) = s.get(i) {
         let d = c.wrapping_sub(b'0');
-        if d > 9 {
+        if d <= 9 {
+            mantissa = mantissa.wrapping_mul(10).wrapping_add(d as u64);
+        } else if c == b'.' && dot == usize::MAX {
+            dot = i;
+        } else {
             break;
         }
-        if digits == 19 {
-            return None;
-        }
-        mantissa = mantissa * 10 + d as u64;
-        digits += 1;
         i += 1;
     }
-    if s.get(i) == Some(&b'.') {
-        i += 1;
-        while let Some(&c) = s.get(i) {
-            let d = c.wrapping_sub(b'0');
-            if d > 9 {
-                break;
-            }
-            if digits == 19 {
-                return None;
-            }
-            mantissa = mantissa * 10 + d as u64;
-            digits += 1;
-            exp -= 1;
-            i += 1;
-        }
+    let (digits, mut exp) = if dot == usize::MAX {
+        (i - start, 0i32)
+    } else {
+        (i - start - 1, -((i - dot - 1) as i32))
+    };
+    if digits > 19 {
+        return None;
     }
     if digits == 0 {
         return None;
     }
     if let Some(&c) = s.get(i) {
-        if c | 0x20 != b'e' {
-            return None;
+        if c | 0x20 == b'e' {
+            i += 1;
+            let eneg = match s.get(i) {
+                Some(b'-') => {
+                    i += 1;
+                    true
+                }
+                Some(b'+') => {
+                    i += 1;
+                    false
+                }
+                _ => false,
+            };
+            let mut e = 0i32;
+            let mut edigits = 0;
+            while let Some(&c) = s.get(i) {
+                let d = c.wrapping_sub(b'0');
+                if d > 9 {
+                    break;
+                }
+                if edigits == 4 {
+                    return None;
+                }
+                e = e * 10 + d as i32;
+                edigits += 1;
+                i += 1;
+            }
+            if edigits == 0 {
+                return None;
+            }
+            exp += if eneg { -e } else { e };
         }
-        i += 1;
-        let (eneg, start) = match s.get(i) {
-            Some(b'-') => (true, i + 1),
-            Some(b'+') => (false, i + 1),
-            _ => (false, i),
-        };
-        let digits = &s[start..];
-        if digits.is_empty() || digits.len() > 4 || !digits.iter().all(u8::is_ascii_digit) {
-            return None;
-        }
-        let e = digits
-            .iter()
-            .fold(0i32, |acc, &c| acc * 10 + (c - b'0') as i32);
-        exp += if eneg { -e } else { e };
     }
     if mantissa > 1 << 53 {
         return None;
@@ -529,7 +644,7 @@ fn fast_f64(s: &[u8]) -> Option<f64> {
     } else {
         return None;
     };
-    Some(if neg { -v } else { v })
+    Some((if neg { -v } else { v }, i))
 }
 
 fn shorten(s: &str) -> String {

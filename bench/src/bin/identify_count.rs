@@ -1,0 +1,41 @@
+//! The identification pipeline once, for instruction counts under callgrind (see
+//! `bench/README.md`, "Identification"):
+//!
+//! ```text
+//! target/release/identify_count write /tmp/id          # simulate + write the campaign once
+//! valgrind --tool=callgrind --callgrind-out-file=/tmp/cg.out \
+//!     target/release/identify_count run /tmp/id/virtual-silo2
+//! ```
+//!
+//! `run` reads the campaign and identifies it (what the criterion bench `identify` times) and
+//! prints `a11` and the wall-clock time; `read` only reads it.
+
+use std::path::Path;
+use std::time::Instant;
+use zmp_bench::identify::{pipeline, write_reference_campaign};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let usage = "usage: identify_count write PARENT_DIR | run CAMPAIGN_DIR | read CAMPAIGN_DIR";
+    let (mode, dir) = match args.as_slice() {
+        [_, mode, dir] => (mode.as_str(), Path::new(dir)),
+        _ => {
+            eprintln!("{usage}");
+            std::process::exit(2);
+        }
+    };
+    let t = Instant::now();
+    match mode {
+        "write" => println!("{}", write_reference_campaign(dir).display()),
+        "run" => println!("a11 {}", pipeline(dir)),
+        "read" => {
+            let camp = zmp_validation::campaign::read_campaign(dir).expect("read");
+            println!("records {}", camp.records.len());
+        }
+        _ => {
+            eprintln!("{usage}");
+            std::process::exit(2);
+        }
+    }
+    eprintln!("{:.3} s", t.elapsed().as_secs_f64());
+}
