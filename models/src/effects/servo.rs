@@ -114,6 +114,10 @@ impl Servo {
                 (self.x, self.v) = (xl, vl);
                 acceleration = d1 + c1;
                 self.c_end = c1;
+            } else if let Some((x, v, c)) = self.constant_acceleration(r0, r, c0, limits) {
+                (self.x, self.v) = (x, v);
+                acceleration = self.demand(r, x, v) + c;
+                self.c_end = c;
             } else {
                 (self.x, self.v) = self.rk4(r0, dr, limits);
                 let d = self.demand(r, self.x, self.v);
@@ -128,6 +132,31 @@ impl Servo {
             velocity: self.v,
             acceleration,
         }
+    }
+
+    /// The exact step when the servo effects hold the acceleration itself constant (the
+    /// saturation clamping, with friction keeping its sign): the same acceleration at both
+    /// ends of the step, velocity sign unchanged. Returns the end state and offset.
+    #[inline]
+    fn constant_acceleration(
+        &self,
+        r0: f64,
+        r: f64,
+        c0: f64,
+        limits: &mut [Box<dyn Effect>],
+    ) -> Option<(f64, f64, f64)> {
+        let d0 = self.demand(r0, self.x, self.v);
+        let a0 = d0 + c0;
+        if c0 == 0.0 {
+            return None;
+        }
+        let h = self.h;
+        let (x, v) = (self.x + h * (self.v + 0.5 * a0 * h), self.v + a0 * h);
+        let d1 = self.demand(r, x, v);
+        let c1 = offset(limits, d1, v);
+        let a1 = d1 + c1;
+        let tol = 1e-12 * (a0.abs() + d0.abs() + d1.abs());
+        ((a1 - a0).abs() <= tol && (self.v >= 0.0) == (v >= 0.0)).then_some((x, v, c1))
     }
 
     fn rk4(&self, r0: f64, dr: f64, limits: &mut [Box<dyn Effect>]) -> (f64, f64) {
@@ -239,8 +268,10 @@ pub fn servo_describing_function(
     with / without
 }
 
-/// Periods compared one by one before the general (subharmonic-aware) settling takes over.
-const FAST_PERIODS: usize = 40;
+/// Periods compared one by one before the general settling takes over.
+const FAST_PERIODS: usize = 60;
+/// Longest subharmonic cycle, in input periods, recognised by the fast path.
+const FAST_SUBHARMONIC: usize = 6;
 /// Relative change of the one-period phasor at which the servo counts as periodic.
 const FAST_SETTLED_REL: f64 = 1e-8;
 
@@ -271,7 +302,13 @@ pub fn servo_first_harmonic(
         e *= rot;
         servo.step(amplitude * e.im, limits);
     }
-    let mut previous: Option<Complex64> = None;
+    // One-period phasors, newest last. A response periodic over m input periods (a saturated
+    // servo can lock into a subharmonic cycle) repeats them with period m; the Fourier
+    // coefficient at omega over those m periods is their mean.
+    let mut history: Vec<Complex64> = Vec::with_capacity(FAST_PERIODS);
+    let same = |a: Complex64, b: Complex64| {
+        (a - b).norm() <= FAST_SETTLED_REL * a.norm().max(b.norm()).max(1e-300)
+    };
     for _ in 0..FAST_PERIODS {
         // Sin-referenced phasor over one whole period: p = (2j/N) sum y_k e^{-j w t_k}.
         let mut acc = Complex64::new(0.0, 0.0);
@@ -281,13 +318,17 @@ pub fn servo_first_harmonic(
             acc += x * e.conj();
         }
         e /= e.norm();
-        let p = acc * Complex64::new(0.0, 2.0 / per as f64);
-        if let Some(q) = previous {
-            if (p - q).norm() <= FAST_SETTLED_REL * p.norm().max(q.norm()) {
-                return p / amplitude;
+        history.push(acc * Complex64::new(0.0, 2.0 / per as f64));
+        let n = history.len();
+        for m in 1..=FAST_SUBHARMONIC {
+            if n > m + 1
+                && same(history[n - 1], history[n - 1 - m])
+                && (m == 1 || same(history[n - 2], history[n - 2 - m]))
+            {
+                let mean = history[n - m..].iter().sum::<Complex64>() / m as f64;
+                return mean / amplitude;
             }
         }
-        previous = Some(p);
     }
     // Not periodic at the input's period: let the general routine find the (sub)harmonic
     // steady state.
@@ -315,6 +356,48 @@ mod tests {
             servo: Some((30.0, 1.0)),
         };
         (lookup("coulomb_friction").unwrap().build)(&ctx, &[level])
+    }
+
+    fn saturation(limit: f64, h: f64) -> Box<dyn Effect> {
+        let ctx = BuildContext {
+            h,
+            binding: Binding::Axis(Axis::X),
+            servo: Some((30.0, 1.0)),
+        };
+        (lookup("acceleration_saturation").unwrap().build)(&ctx, &[limit])
+    }
+
+    /// Deep in saturation (the servo clamped most of each period, bang-bang) the
+    /// constant-acceleration step against RK4 on a 50x finer grid.
+    #[test]
+    fn constant_acceleration_path_matches_fine_rk4_in_saturation() {
+        let (h, fine) = (1e-3, 50);
+        let mut fast = Servo::new(30.0, 1.0, h);
+        let mut lf = [saturation(0.8, h)];
+        let mut reference = Servo::new(30.0, 1.0, h / fine as f64);
+        let mut lr = [saturation(0.8, h)];
+        fast.reset(0.0);
+        reference.reset(0.0);
+        let mut worst: f64 = 0.0;
+        for k in 1..=5000 {
+            let t = k as f64 * h;
+            let a = fast.step(0.008 * (15.0 * t).sin(), &mut lf);
+            let mut b = 0.0;
+            for m in 1..=fine {
+                let tm = (k - 1) as f64 * h + m as f64 * h / fine as f64;
+                let r = 0.008 * (15.0 * tm).sin();
+                let r0 = reference.r_prev;
+                let next = reference.rk4(r0, r - r0, &mut lr);
+                (reference.x, reference.v) = next;
+                reference.r_prev = r;
+                b = reference.x;
+            }
+            worst = worst.max((a.position - b).abs());
+        }
+        assert!(
+            worst < 2e-6,
+            "fast path departs from fine RK4 by {worst} m (amplitude 8 mm)"
+        );
     }
 
     /// The constant-force fast path against RK4 on a 50x finer grid with the same force law.
