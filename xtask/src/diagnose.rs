@@ -111,16 +111,7 @@ pub fn compare(
     } else {
         println!("where it fails (error / noise floor):");
         for c in bad {
-            println!(
-                "  {} {:>5.2}-{:<5.2} rad/s  {:>4.1} mm  op ({:+.3}, {:+.3}) m  {:>6.1}x",
-                c.channel,
-                c.band_rad_s[0],
-                c.band_rad_s[1],
-                c.amplitude_m * 1e3,
-                c.operating_point_m[0],
-                c.operating_point_m[1],
-                c.ratio
-            );
+            println!("  {}", c.line());
         }
     }
     for (k, r) in &skipped {

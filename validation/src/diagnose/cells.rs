@@ -56,6 +56,22 @@ pub struct Cell {
     pub significant: bool,
 }
 
+impl Cell {
+    /// One line: `G11  0.50-1.17  rad/s   3.0 mm  op (+0.000, +0.020) m   55.6x`.
+    pub fn line(&self) -> String {
+        format!(
+            "{} {:>5.2}-{:<5.2} rad/s  {:>4.1} mm  op ({:+.3}, {:+.3}) m  {:>6.1}x",
+            self.channel,
+            self.band_rad_s[0],
+            self.band_rad_s[1],
+            self.amplitude_m * 1e3,
+            self.operating_point_m[0],
+            self.operating_point_m[1],
+            self.ratio
+        )
+    }
+}
+
 /// Squared-error ratio above which a cell of `n` records counts as failing: at least 9
 /// (error three times the floor: the floor is itself estimated, and a campaign has many
 /// cells) and beyond six standard deviations of the chi-square spread of noise alone (three

@@ -374,17 +374,7 @@ pub fn diagnose(
             ))
         );
         if let Some(c) = where_.first() {
-            text.push_str(&format!(
-                "; worst in {} at {:.2}-{:.2} rad/s, {:.1} mm, operating point ({:.3}, {:.3}) m: \
-                 {:.1}x its floor",
-                c.channel,
-                c.band_rad_s[0],
-                c.band_rad_s[1],
-                c.amplitude_m * 1e3,
-                c.operating_point_m[0],
-                c.operating_point_m[1],
-                c.ratio
-            ));
+            text.push_str(&format!("; worst: {} its floor", c.line().trim_end()));
         }
         let mut chans: Vec<String> = where_.iter().map(|c| c.channel.clone()).collect();
         chans.sort();
@@ -587,16 +577,7 @@ impl Diagnosis {
         if !bad.is_empty() {
             s.push_str("Where the starting model fails (error / noise floor):\n");
             for c in bad {
-                s.push_str(&format!(
-                    "  {} {:>5.2}-{:<5.2} rad/s  {:>4.1} mm  op ({:+.3}, {:+.3}) m  {:>5.1}x\n",
-                    c.channel,
-                    c.band_rad_s[0],
-                    c.band_rad_s[1],
-                    c.amplitude_m * 1e3,
-                    c.operating_point_m[0],
-                    c.operating_point_m[1],
-                    c.ratio
-                ));
+                s.push_str(&format!("  {}\n", c.line()));
             }
         }
         s
