@@ -8,9 +8,7 @@
 
 use crate::effect::Effect;
 use crate::effects::tracking_lowpass::TrackingLowpass;
-use crate::harmonic::steady_first_harmonics;
 use crate::lti::discretise_foh;
-use crate::plant::MAX_SETTLE_STEPS;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 use std::collections::HashMap;
@@ -330,17 +328,11 @@ pub fn servo_first_harmonic(
             }
         }
     }
-    // Not periodic at the input's period: let the general routine find the (sub)harmonic
-    // steady state.
-    // Bounded: a describing function is an approximation anyway where the servo does not
-    // lock to the input's period within a hundred periods.
-    let n_max = n_settle + (per * 100).min(MAX_SETTLE_STEPS);
-    servo.reset(0.0);
-    let [x] = steady_first_harmonics(omega, h_df, n_settle, n_max, |k| {
-        let t = k as f64 * h_df;
-        [servo.step(amplitude * (omega * t).sin(), limits).position]
-    });
-    x / amplitude
+    // Not locked to a cycle of up to six periods within sixty: the Fourier coefficient over
+    // the last twelve periods (a whole number of cycles of 1, 2, 3, 4 or 6 periods), the
+    // describing function of a response that wanders.
+    let n = history.len();
+    history[n - 12..].iter().sum::<Complex64>() / (12.0 * amplitude)
 }
 
 #[cfg(test)]
