@@ -43,6 +43,7 @@ pub fn compare(
     campaign: &Path,
     model: &Path,
     report: &Path,
+    records: &[usize],
     force: bool,
     json: bool,
 ) -> Result<()> {
@@ -52,6 +53,18 @@ pub fn compare(
     let (obs, skipped) = observe_campaign(&camp, opts.threads);
     let refs: Vec<&Observation> = obs.iter().collect();
     check_inputs(&refs, &spec, &opts)?;
+    for r in records {
+        if let Some((_, why)) = skipped.iter().find(|(k, _)| k == r) {
+            anyhow::bail!("{}: record {r} was left out: {why}", campaign.display());
+        }
+        if !refs.iter().any(|o| o.index == *r) {
+            anyhow::bail!(
+                "{}: there is no record {r} (records are numbered from 0 in campaign.toml order; the campaign has {})",
+                campaign.display(),
+                camp.records.len()
+            );
+        }
+    }
     let preds = predict(&spec, &refs)?;
     let scores = evaluate(&spec, &refs)?;
     let (e, f) = aggregate(&scores);
@@ -64,6 +77,7 @@ pub fn compare(
         &refs,
         &preds,
         &cl,
+        records,
         report,
         force,
     )?;

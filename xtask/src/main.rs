@@ -132,6 +132,10 @@ enum Cmd {
         /// Report folder.
         #[arg(long, default_value = "out/compare")]
         report: PathBuf,
+        /// Record (number in campaign.toml order, from 0) whose steady-state time overlay and
+        /// residual spectrum the report shows; repeatable. Default: the worst record.
+        #[arg(long = "record")]
+        records: Vec<usize>,
         /// Overwrite existing report files.
         #[arg(long)]
         force: bool,
@@ -246,9 +250,10 @@ fn run(cli: Cli) -> Result<()> {
             campaign,
             model,
             report,
+            records,
             force,
             json,
-        } => diagnose::compare(&campaign, &model, &report, force, json),
+        } => diagnose::compare(&campaign, &model, &report, &records, force, json),
         Cmd::Diagnose {
             campaign,
             model,

@@ -179,22 +179,27 @@ fn harmonic_panel(obs: &[&Observation]) -> TimePanel {
     }
 }
 
-/// The worst record (largest excess error): time overlay of its steady state (measured against
-/// the model's first harmonic and trend on the measured mean) and the residual's spectrum.
-fn worst_record_panels(
-    campaign: &Campaign,
-    obs: &[&Observation],
-    preds: &[Prediction],
-) -> Option<(usize, Vec<TimePanel>, TimePanel)> {
-    let (k, _) = obs
-        .iter()
+/// The observation with the largest excess error.
+fn worst(obs: &[&Observation], preds: &[Prediction]) -> Option<usize> {
+    obs.iter()
         .zip(preds)
         .enumerate()
         .map(|(k, (o, p))| {
             let s = score(o, p);
             (k, s.error2 - s.floor2)
         })
-        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|x| x.0)
+}
+
+/// Time overlay of observation `k`'s steady state (measured against the model's first
+/// harmonic and trend on the measured mean) and the residual's spectrum.
+fn record_panels(
+    campaign: &Campaign,
+    obs: &[&Observation],
+    preds: &[Prediction],
+    k: usize,
+) -> Option<(usize, Vec<TimePanel>, TimePanel)> {
     let o = obs[k];
     let rec = campaign.records.get(o.index)?;
     let i0 = rec.t.iter().position(|&t| t >= o.t0)?;
@@ -326,7 +331,8 @@ fn group_bars(
         .collect()
 }
 
-/// Writes the comparison figures of `preds` (the model) into `dir`; returns the HTML body.
+/// Writes the comparison figures of the last model of `models` into `dir` (time overlays of
+/// `records`, campaign record numbers, or of the worst record); returns the HTML body.
 fn comparison_section(
     campaign: &Campaign,
     obs: &[&Observation],
@@ -334,6 +340,7 @@ fn comparison_section(
     dir: &Path,
     force: bool,
     prefix: &str,
+    records: &[usize],
 ) -> Result<(String, Vec<PathBuf>)> {
     let preds = models.last().expect("one model at least").predictions;
     let mut files = Vec::new();
@@ -385,16 +392,32 @@ fn comparison_section(
         std::fs::read_to_string(&op)?
     );
 
-    if let Some((index, panels, spec)) = worst_record_panels(campaign, obs, preds) {
-        let t = dir.join(format!("{prefix}worst_record_time.svg"));
+    // The records asked for (by campaign record number), else the worst.
+    let chosen: Vec<(usize, &str)> = if records.is_empty() {
+        worst(obs, preds)
+            .map(|k| (k, "Worst record"))
+            .into_iter()
+            .collect()
+    } else {
+        records
+            .iter()
+            .filter_map(|r| obs.iter().position(|o| o.index == *r))
+            .map(|k| (k, "Record"))
+            .collect()
+    };
+    for (k, what) in chosen {
+        let Some((index, panels, spec)) = record_panels(campaign, obs, preds, k) else {
+            continue;
+        };
+        let t = dir.join(format!("{prefix}record_{index}_time.svg"));
         time_svg(&t, &panels, force)?;
-        let s = dir.join(format!("{prefix}worst_record_residual_spectrum.svg"));
+        let s = dir.join(format!("{prefix}record_{index}_residual_spectrum.svg"));
         time_svg(&s, std::slice::from_ref(&spec), force)?;
         files.push(t.clone());
         files.push(s.clone());
         let _ = writeln!(
             h,
-            "<h2>Worst record ({index}): steady-state time overlay and residual spectrum</h2>\n\
+            "<h2>{what} {index}: steady-state time overlay and residual spectrum</h2>\n\
              <p>The model's steady state is its first harmonic and trend on the measured mean; \
              what remains (residual) is noise, harmonics the model does not produce, or a \
              misfit of the fundamental.</p>\n<div>{}</div><div>{}</div>",
@@ -463,6 +486,7 @@ pub fn write_compare_report(
     obs: &[&Observation],
     preds: &[Prediction],
     cells: &[Cell],
+    records: &[usize],
     dir: &Path,
     force: bool,
 ) -> Result<PathBuf> {
@@ -493,6 +517,7 @@ pub fn write_compare_report(
         dir,
         force,
         "",
+        records,
     )?;
     h.push_str(&body);
     h.push_str("<p>Next: <code>cargo xtask diagnose</code> names the physical effect that is missing.</p></body></html>\n");
@@ -606,7 +631,7 @@ pub fn write_diagnosis_report(
             },
         ]
     };
-    let (body, _) = comparison_section(campaign, &obs, &overlays, dir, force, "diagnosis_")?;
+    let (body, _) = comparison_section(campaign, &obs, &overlays, dir, force, "diagnosis_", &[])?;
     h.push_str("<h2>Where the model as given fails</h2>\n");
     h.push_str(&cells_table(&d.cells, 12));
     if !d.selected.is_empty() {
