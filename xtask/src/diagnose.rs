@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
 use zmp_validation::campaign::{read_campaign, Campaign};
 use zmp_validation::diagnose::augment::{augment, Augmented};
-use zmp_validation::diagnose::cells::{cells, channel_summary};
+use zmp_validation::diagnose::cells::{cells, channel_scores, channel_summary};
 use zmp_validation::diagnose::engine::evaluate;
 use zmp_validation::diagnose::measure::{aggregate, predict};
 use zmp_validation::diagnose::observe::Observation;
@@ -85,11 +85,27 @@ pub fn compare(
         let records: Vec<_> = refs
             .iter()
             .zip(&scores)
-            .map(|(o, s)| {
+            .zip(&preds)
+            .map(|((o, s), p)| {
+                // Per channel: this record's measure split by output (they add in squares).
+                let per: serde_json::Map<String, serde_json::Value> = channel_scores(o, p)
+                    .iter()
+                    .enumerate()
+                    .map(|(i, c)| {
+                        let ch = zmp_models::Channel::new(
+                            zmp_models::Axis::from_index(i).expect("0 or 1"),
+                            o.excited,
+                        );
+                        (
+                            ch.name().to_string(),
+                            serde_json::json!({"error": c.error2.sqrt(), "noise_floor": c.floor2.sqrt()}),
+                        )
+                    })
+                    .collect();
                 serde_json::json!({
                     "record": o.index, "excited": o.excited.name(), "omega": o.omega,
                     "amplitude_m": o.nominal_amplitude, "operating_point_m": o.operating_point,
-                    "error": s.error(), "noise_floor": s.floor(),
+                    "error": s.error(), "noise_floor": s.floor(), "channels": per,
                 })
             })
             .collect();
