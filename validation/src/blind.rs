@@ -3,10 +3,11 @@
 //! level. The diagnosis sees only the campaign simulated from the draw and a model identified
 //! from that campaign.
 
+use crate::diagnose::candidates::add_effect;
 use crate::virtual_robot::{logspace, ExperimentDesign};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use zmp_models::{lookup, Axis, Binding, EffectInstance, ModelSpec};
+use zmp_models::{Axis, Binding, ModelSpec};
 
 /// The effects a draw can hide (the diagnosis catalogue).
 pub const EFFECTS: [&str; 9] = [
@@ -58,17 +59,6 @@ pub fn design(seed: u64, noise: f64) -> ExperimentDesign {
     }
 }
 
-fn add(spec: &mut ModelSpec, kind: &str, bindings: &[Binding], values: &[f64]) {
-    let info = lookup(kind).expect("registered effect");
-    for b in bindings {
-        spec.insert(EffectInstance {
-            info,
-            binding: *b,
-            values: values.to_vec(),
-        });
-    }
-}
-
 fn axes(rng: &mut ChaCha8Rng) -> Vec<Binding> {
     match rng.gen_range(0..3) {
         0 => vec![Binding::Axis(Axis::X)],
@@ -105,19 +95,19 @@ pub fn hide(
         "time_delay" => {
             let b = axes(rng);
             let d = log_uniform(rng, 0.015, 0.08);
-            add(spec, effect, &b, &[d]);
+            add_effect(spec, effect, &b, &[d]);
             format!("time_delay {} {:.1} ms", names(&b), d * 1e3)
         }
         "backlash" => {
             let b = axes(rng);
             let w = log_uniform(rng, 0.0006, 0.002);
-            add(spec, effect, &b, &[w]);
+            add_effect(spec, effect, &b, &[w]);
             format!("backlash {} {:.2} mm", names(&b), w * 1e3)
         }
         "coulomb_friction" => {
             let b = axes(rng);
             let f = log_uniform(rng, 0.15, 0.8);
-            add(spec, effect, &b, &[f]);
+            add_effect(spec, effect, &b, &[f]);
             format!("coulomb_friction {} {:.3} m/s2", names(&b), f)
         }
         "acceleration_saturation" => {
@@ -128,20 +118,20 @@ pub fn hide(
             let peak = w * w * h * a;
             let b = vec![Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
             let l = peak * rng.gen_range(0.35..0.7);
-            add(spec, effect, &b, &[l]);
+            add_effect(spec, effect, &b, &[l]);
             format!("acceleration_saturation {} {:.3} m/s2", names(&b), l)
         }
         "structural_mode" => {
             let b = axes(rng);
             let w = log_uniform(rng, 3.0, 20.0);
             let z = log_uniform(rng, 0.1, 0.35);
-            add(spec, effect, &b, &[w, z]);
+            add_effect(spec, effect, &b, &[w, z]);
             format!("structural_mode {} {:.2} rad/s zeta {:.3}", names(&b), w, z)
         }
         "sensor_lowpass" => {
             let b = axes(rng);
             let c = log_uniform(rng, 6.0, 40.0);
-            add(spec, effect, &b, &[c]);
+            add_effect(spec, effect, &b, &[c]);
             format!("sensor_lowpass {} {:.1} rad/s", names(&b), c)
         }
         "operating_point_dependence" => {
@@ -152,7 +142,7 @@ pub fn hide(
                 s(rng) * log_uniform(rng, 1.0, 3.0),
                 s(rng) * log_uniform(rng, 1.0, 3.0),
             ];
-            add(spec, effect, &[Binding::Global], &v);
+            add_effect(spec, effect, &[Binding::Global], &v);
             format!(
                 "operating_point_dependence da_dx {:.2} da_dy {:.2} db_dx {:.2} db_dy {:.2}",
                 v[0], v[1], v[2], v[3]
@@ -162,7 +152,7 @@ pub fn hide(
             let b = axes(rng);
             let s = if rng.gen::<bool>() { 1.0 } else { -1.0 };
             let r = s * log_uniform(rng, 1e-5, 6e-5);
-            add(spec, effect, &b, &[0.0, r]);
+            add_effect(spec, effect, &b, &[0.0, r]);
             format!("sensor_drift {} {:.3} mm/s", names(&b), r * 1e3)
         }
         "cross_coupling" => {

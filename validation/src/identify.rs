@@ -30,6 +30,7 @@ pub mod report;
 mod sine;
 
 use crate::campaign::{Campaign, Record};
+use crate::par::parallel_map;
 use fit::{Point, NP};
 use num_complex::Complex64;
 use serde::Serialize;
@@ -458,38 +459,12 @@ pub fn analyse_records(
     opts: &IdentifyOptions,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Vec<RecordFit> {
-    let n = campaign.records.len();
-    let workers = opts
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |w| w.get()))
-        .clamp(1, n.max(1));
-    let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
-    let parts: Vec<Vec<RecordFit>> = std::thread::scope(|s| {
-        let handles: Vec<_> = (0..workers)
-            .map(|_| {
-                s.spawn(|| {
-                    let mut mine = Vec::new();
-                    loop {
-                        let k = next.fetch_add(1, Ordering::Relaxed);
-                        if k >= n {
-                            break;
-                        }
-                        mine.push(analyse_record(&campaign.records[k], k, opts));
-                        progress(done.fetch_add(1, Ordering::Relaxed) + 1);
-                    }
-                    mine
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
-            .collect()
-    });
-    let mut out: Vec<RecordFit> = parts.into_iter().flatten().collect();
-    out.sort_by_key(|r| r.index);
-    out
+    parallel_map(campaign.records.len(), worker_count(opts), |k| {
+        let fit = analyse_record(&campaign.records[k], k, opts);
+        progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+        fit
+    })
 }
 
 /// Worker threads for `opts`: `opts.threads`, else the available cores.
@@ -497,39 +472,6 @@ fn worker_count(opts: &IdentifyOptions) -> usize {
     opts.threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |w| w.get()))
         .max(1)
-}
-
-/// `(0..n).map(job)` on up to `threads` scoped threads (jobs handed out one at a time), results
-/// in index order.
-fn parallel_map<T: Send>(n: usize, threads: usize, job: impl Fn(usize) -> T + Sync) -> Vec<T> {
-    let workers = threads.clamp(1, n.max(1));
-    if workers == 1 {
-        return (0..n).map(job).collect();
-    }
-    let next = AtomicUsize::new(0);
-    let mut out: Vec<(usize, T)> = std::thread::scope(|s| {
-        let handles: Vec<_> = (0..workers)
-            .map(|_| {
-                s.spawn(|| {
-                    let mut mine = Vec::new();
-                    loop {
-                        let k = next.fetch_add(1, Ordering::Relaxed);
-                        if k >= n {
-                            break;
-                        }
-                        mine.push((k, job(k)));
-                    }
-                    mine
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .flat_map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
-            .collect()
-    });
-    out.sort_by_key(|r| r.0);
-    out.into_iter().map(|r| r.1).collect()
 }
 
 /// Identifies the campaign (see the module docs).
@@ -1399,14 +1341,5 @@ mod tests {
         assert!(x > 1.0 - 2e-4, "{x}");
         let (x, _) = brent_minimise(0.0, 1.0, 5e-5, 60, |_| 1.0);
         assert!((0.0..=1.0).contains(&x));
-    }
-
-    #[test]
-    fn parallel_map_keeps_order() {
-        for threads in [1, 2, 5] {
-            let v = parallel_map(11, threads, |k| k * k);
-            assert_eq!(v, (0..11).map(|k| k * k).collect::<Vec<_>>());
-        }
-        assert!(parallel_map(0, 2, |k| k).is_empty());
     }
 }

@@ -4,5 +4,6 @@ pub mod diagnose;
 pub mod identify;
 pub mod io;
 pub mod ledger;
+pub mod par;
 pub mod plot;
 pub mod virtual_robot;

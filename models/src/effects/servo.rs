@@ -341,85 +341,58 @@ mod tests {
     use crate::effect::{lookup, Binding, BuildContext};
     use crate::Axis;
 
-    fn friction(level: f64, h: f64) -> Box<dyn Effect> {
+    /// The servo effect `kind` with parameter `value`, built for step `h`.
+    fn limit(kind: &str, value: f64, h: f64) -> Box<dyn Effect> {
         let ctx = BuildContext {
             h,
             binding: Binding::Axis(Axis::X),
             servo: Some((30.0, 1.0)),
         };
-        (lookup("coulomb_friction").unwrap().build)(&ctx, &[level])
+        (lookup(kind).unwrap().build)(&ctx, &[value])
     }
 
-    fn saturation(limit: f64, h: f64) -> Box<dyn Effect> {
-        let ctx = BuildContext {
-            h,
-            binding: Binding::Axis(Axis::X),
-            servo: Some((30.0, 1.0)),
-        };
-        (lookup("acceleration_saturation").unwrap().build)(&ctx, &[limit])
-    }
-
-    /// Deep in saturation (the servo clamped most of each period, bang-bang) the
-    /// constant-acceleration step against RK4 on a 50x finer grid.
-    #[test]
-    fn constant_acceleration_path_matches_fine_rk4_in_saturation() {
+    /// Largest position difference over 5 s between the servo's own step (h = 1 ms) and RK4 on
+    /// a 50x finer grid, with the same effect (built with the coarse step, so the friction's
+    /// regularisation is the same), for a reference sine of `amplitude` at `omega`.
+    fn worst_against_fine_rk4(kind: &str, value: f64, amplitude: f64, omega: f64) -> f64 {
         let (h, fine) = (1e-3, 50);
         let mut fast = Servo::new(30.0, 1.0, h);
-        let mut lf = [saturation(0.8, h)];
+        let mut lf = [limit(kind, value, h)];
         let mut reference = Servo::new(30.0, 1.0, h / fine as f64);
-        let mut lr = [saturation(0.8, h)];
+        let mut lr = [limit(kind, value, h)];
         fast.reset(0.0);
         reference.reset(0.0);
         let mut worst: f64 = 0.0;
         for k in 1..=5000 {
             let t = k as f64 * h;
-            let a = fast.step(0.008 * (15.0 * t).sin(), &mut lf);
-            let mut b = 0.0;
+            let a = fast.step(amplitude * (omega * t).sin(), &mut lf);
             for m in 1..=fine {
                 let tm = (k - 1) as f64 * h + m as f64 * h / fine as f64;
-                let r = 0.008 * (15.0 * tm).sin();
+                let r = amplitude * (omega * tm).sin();
                 let r0 = reference.r_prev;
-                let next = reference.rk4(r0, r - r0, &mut lr);
-                (reference.x, reference.v) = next;
+                (reference.x, reference.v) = reference.rk4(r0, r - r0, &mut lr);
                 reference.r_prev = r;
-                b = reference.x;
             }
-            worst = worst.max((a.position - b).abs());
+            worst = worst.max((a.position - reference.x).abs());
         }
+        worst
+    }
+
+    /// Deep in saturation (the servo clamped most of each period, bang-bang): the
+    /// constant-acceleration step.
+    #[test]
+    fn constant_acceleration_path_matches_fine_rk4_in_saturation() {
+        let worst = worst_against_fine_rk4("acceleration_saturation", 0.8, 0.008, 15.0);
         assert!(
             worst < 2e-6,
             "fast path departs from fine RK4 by {worst} m (amplitude 8 mm)"
         );
     }
 
-    /// The constant-force fast path against RK4 on a 50x finer grid with the same force law.
+    /// Under friction: the constant-force step.
     #[test]
     fn fast_path_matches_fine_rk4_under_friction() {
-        let (h, fine) = (1e-3, 50);
-        let level = 0.05;
-        let mut fast = Servo::new(30.0, 1.0, h);
-        let mut lf = [friction(level, h)];
-        // Same regularisation velocity as the coarse one: built with the coarse step.
-        let mut reference = Servo::new(30.0, 1.0, h / fine as f64);
-        let mut lr = [friction(level, h)];
-        fast.reset(0.0);
-        reference.reset(0.0);
-        let mut worst: f64 = 0.0;
-        for k in 1..=5000 {
-            let t = k as f64 * h;
-            let a = fast.step(0.005 * (3.0 * t).sin(), &mut lf);
-            let mut b = ServoState::default();
-            for m in 1..=fine {
-                let tm = (k - 1) as f64 * h + m as f64 * h / fine as f64;
-                let r = 0.005 * (3.0 * tm).sin();
-                let r0 = reference.r_prev;
-                let next = reference.rk4(r0, r - r0, &mut lr);
-                (reference.x, reference.v) = next;
-                reference.r_prev = r;
-                b.position = reference.x;
-            }
-            worst = worst.max((a.position - b.position).abs());
-        }
+        let worst = worst_against_fine_rk4("coulomb_friction", 0.05, 0.005, 3.0);
         assert!(
             worst < 2e-7,
             "fast path departs from fine RK4 by {worst} m (amplitude 5 mm)"

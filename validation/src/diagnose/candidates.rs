@@ -166,16 +166,21 @@ pub struct Candidate {
     pub prepare: fn(&ModelSpec, &DataRange) -> Vec<Start>,
 }
 
-fn with(spec: &ModelSpec, kind: &str, bindings: &[Binding], values: &[f64]) -> ModelSpec {
-    let mut s = spec.clone();
-    let info = lookup(kind).expect("catalogued effect is registered");
+/// Adds the registered effect `kind` with `values` at every binding listed.
+pub fn add_effect(spec: &mut ModelSpec, kind: &str, bindings: &[Binding], values: &[f64]) {
+    let info = lookup(kind).expect("a registered effect");
     for b in bindings {
-        s.insert(EffectInstance {
+        spec.insert(EffectInstance {
             info,
             binding: *b,
             values: values.to_vec(),
         });
     }
+}
+
+fn with(spec: &ModelSpec, kind: &str, bindings: &[Binding], values: &[f64]) -> ModelSpec {
+    let mut s = spec.clone();
+    add_effect(&mut s, kind, bindings, values);
     s
 }
 

@@ -257,28 +257,11 @@ pub fn score_candidates(
     // The slow (servo) candidates first so the threads finish together.
     let mut order: Vec<usize> = (0..cands.len()).collect();
     order.sort_by_key(|&k| !is_costly(cands[k].effect));
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<Vec<Scored>> = std::thread::scope(|s| {
-        let handles: Vec<_> = (0..threads.clamp(1, cands.len().max(1)))
-            .map(|_| {
-                s.spawn(|| {
-                    let mut mine = Vec::new();
-                    loop {
-                        let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        let Some(&i) = order.get(k) else { break };
-                        if let Some(sc) = score_candidate(cands[i], base, obs) {
-                            mine.push(sc);
-                        }
-                        done(cands[i].effect);
-                    }
-                    mine
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
-            .collect()
+    let results = crate::par::parallel_map(order.len(), threads, |k| {
+        let c = cands[order[k]];
+        let scored = score_candidate(c, base, obs);
+        done(c.effect);
+        scored
     });
     let mut out: Vec<Scored> = results.into_iter().flatten().collect();
     out.sort_by(|a, b| a.error.total_cmp(&b.error));
