@@ -7,8 +7,7 @@ use std::path::{Path, PathBuf};
 use zmp_validation::campaign::{read_campaign, Campaign};
 use zmp_validation::diagnose::augment::{augment, Augmented};
 use zmp_validation::diagnose::cells::{cells, channel_scores, channel_summary};
-use zmp_validation::diagnose::engine::evaluate;
-use zmp_validation::diagnose::measure::{aggregate, predict};
+use zmp_validation::diagnose::measure::{aggregate, score};
 use zmp_validation::diagnose::observe::Observation;
 use zmp_validation::diagnose::report::{write_compare_report, write_diagnosis_report};
 use zmp_validation::diagnose::run::{check_inputs, observe_campaign};
@@ -52,7 +51,7 @@ pub fn compare(
     let opts = options(campaign, model);
     let (obs, skipped) = observe_campaign(&camp, opts.threads);
     let refs: Vec<&Observation> = obs.iter().collect();
-    check_inputs(&refs, &spec, &opts)?;
+    let preds = check_inputs(&refs, &spec, &opts)?;
     for r in records {
         if let Some((_, why)) = skipped.iter().find(|(k, _)| k == r) {
             anyhow::bail!("{}: record {r} was left out: {why}", campaign.display());
@@ -65,8 +64,7 @@ pub fn compare(
             );
         }
     }
-    let preds = predict(&spec, &refs)?;
-    let scores = evaluate(&spec, &refs)?;
+    let scores: Vec<_> = refs.iter().zip(&preds).map(|(o, p)| score(o, p)).collect();
     let (e, f) = aggregate(&scores);
     let cl = cells(&refs, &preds);
     let ch = channel_summary(&refs, &preds);

@@ -5,11 +5,11 @@
 use super::candidates::{model_kind, CATALOGUE};
 use super::cells::{cells, channel_summary, Cell};
 use super::engine::{
-    control, distinct_omegas, evaluate, own_parameters, score_candidates, significant,
-    without_effect, Scored, EXPLAINED_RATIO,
+    control, distinct_omegas, own_parameters, score_candidates, significant, without_effect,
+    Scored, EXPLAINED_RATIO,
 };
 use super::evidence::sentence;
-use super::measure::{aggregate, predict, Prediction};
+use super::measure::{aggregate, predict, score, Prediction};
 use super::observe::{observe, Observation};
 use crate::campaign::Campaign;
 use crate::identify::{analyse_records, reason, IdentifyOptions};
@@ -129,12 +129,13 @@ pub fn observe_campaign(
     (obs, skipped)
 }
 
-/// Checks that the model describes the campaign's channels.
+/// Checks that the model describes the campaign's channels; returns its predictions (which
+/// the check needs anyway).
 pub fn check_inputs(
     obs: &[&Observation],
     model: &ModelSpec,
     opts: &DiagnoseOptions,
-) -> Result<(), DiagnoseError> {
+) -> Result<Vec<Prediction>, DiagnoseError> {
     let camp = |message: String| DiagnoseError::Campaign {
         campaign: opts.campaign_path.clone(),
         message,
@@ -212,7 +213,7 @@ pub fn check_inputs(
             });
         }
     }
-    Ok(())
+    Ok(preds)
 }
 
 /// Channels an effect changed: those whose error fell by at least half of the excess.
@@ -269,14 +270,17 @@ pub fn diagnose(
     zmp_models::effects::servo::clear_describing_function_cache();
     let (observations, skipped) = observe_campaign(campaign, opts.threads);
     let obs: Vec<&Observation> = observations.iter().collect();
-    check_inputs(&obs, model, opts)?;
+    let base_predictions = check_inputs(&obs, model, opts)?;
     let model_err = |e: zmp_models::ModelError| DiagnoseError::Model {
         model: opts.model_path.clone(),
         message: e.to_string(),
     };
-    let base_scores = evaluate(model, &obs).map_err(model_err)?;
+    let base_scores: Vec<_> = obs
+        .iter()
+        .zip(&base_predictions)
+        .map(|(o, p)| score(o, p))
+        .collect();
     let (baseline, floor) = aggregate(&base_scores);
-    let base_predictions = predict(model, &obs).map_err(model_err)?;
     let base_cells = cells(&obs, &base_predictions);
     let channels = channel_summary(&obs, &base_predictions);
     progress("baseline");
@@ -292,7 +296,6 @@ pub fn diagnose(
     let mut tried = Vec::new();
     let mut current = model.clone();
     let mut current_preds = base_predictions.clone();
-    let _ = &current_preds;
     let mut final_error = baseline;
     if !explained {
         // The reference a candidate must beat: the model as it is, or refitted if that is better.
