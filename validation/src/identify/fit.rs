@@ -199,7 +199,7 @@ pub(crate) fn weight_mag(k: f64, z: f64, p: f64, omega: f64) -> f64 {
 
 /// Fits `W = k (s + z)/(s + p)` as an upper envelope of `l(omega)`: `|W| >= l` at every point,
 /// minimal in the least squares of `log |W| - log l`. Grid search on `(z, p)` (log scale), `k`
-/// the smallest that satisfies the envelope; then a finer grid around the best.
+/// the smallest that satisfies the envelope; then a pattern search around the best.
 pub(crate) fn fit_weight(omega: &[f64], l: &[f64]) -> Option<(f64, f64, f64)> {
     let pts: Vec<(f64, f64)> = omega
         .iter()
@@ -212,44 +212,62 @@ pub(crate) fn fit_weight(omega: &[f64], l: &[f64]) -> Option<(f64, f64, f64)> {
     }
     let wmin = pts.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
     let wmax = pts.iter().map(|p| p.0).fold(0.0, f64::max);
-    let eval = |z: f64, p: f64| -> (f64, f64) {
-        let shape: Vec<f64> = pts
-            .iter()
-            .map(|(w, _)| weight_mag(1.0, z, p, *w).ln())
-            .collect();
-        let logk = pts
-            .iter()
-            .zip(&shape)
-            .map(|((_, lv), s)| lv - s)
-            .fold(f64::NEG_INFINITY, f64::max);
-        let cost: f64 = pts
-            .iter()
-            .zip(&shape)
-            .map(|((_, lv), s)| (logk + s - lv).powi(2))
-            .sum();
-        (cost, logk)
+    // log|W(j w)| = log k + A(z, w) - A(p, w) with A(x, w) = ln(w^2 + x^2) / 2, so with A
+    // tabulated per candidate z and p the cost of a pair takes additions only.
+    let a_row = |x: f64| -> Vec<f64> {
+        pts.iter()
+            .map(|(w, _)| 0.5 * (w * w + x * x).ln())
+            .collect()
     };
-    let (mut lo, mut hi) = ((wmin / 100.0).ln(), (wmax * 100.0).ln());
-    let mut best = (f64::INFINITY, 0.0, 0.0, 0.0);
-    for _round in 0..3 {
-        const N: usize = 48;
-        for a in 0..=N {
-            let z = (lo + (hi - lo) * a as f64 / N as f64).exp();
-            for b in 0..=N {
-                let p = (lo + (hi - lo) * b as f64 / N as f64).exp();
-                let (c, logk) = eval(z, p);
+    // k is set by the largest residual ln l - shape (the envelope touches there).
+    let cost = |za: &[f64], pb: &[f64]| -> f64 {
+        let resid = || {
+            za.iter()
+                .zip(pb)
+                .zip(&pts)
+                .map(|((za, pb), (_, lv))| lv - (za - pb))
+        };
+        let logk = resid().fold(f64::NEG_INFINITY, f64::max);
+        resid().map(|d| (logk - d) * (logk - d)).sum()
+    };
+    // Global grid on log z, log p (shared values), two decades beyond the data each side.
+    const N: usize = 48;
+    let (lo, hi) = ((wmin / 100.0).ln(), (wmax * 100.0).ln());
+    let grid: Vec<f64> = (0..=N)
+        .map(|a| lo + (hi - lo) * a as f64 / N as f64)
+        .collect();
+    let rows: Vec<Vec<f64>> = grid.iter().map(|g| a_row(g.exp())).collect();
+    let mut best = (f64::INFINITY, 0.0, 0.0);
+    for (a, za) in rows.iter().enumerate() {
+        for (b, pb) in rows.iter().enumerate() {
+            let c = cost(za, pb);
+            if c < best.0 - 1e-15 {
+                best = (c, grid[a], grid[b]);
+            }
+        }
+    }
+    // Local pattern search from the best grid point: move to the best of the 3 x 3 neighbours,
+    // halve the step when the centre stays best.
+    let mut step = (hi - lo) / N as f64;
+    while step > 1e-4 {
+        let lzs = [best.1 - step, best.1, best.1 + step].map(|v| v.clamp(lo, hi));
+        let lps = [best.2 - step, best.2, best.2 + step].map(|v| v.clamp(lo, hi));
+        let (zr, pr) = (lzs.map(|v| a_row(v.exp())), lps.map(|v| a_row(v.exp())));
+        let mut moved = false;
+        for (za, lz) in zr.iter().zip(lzs) {
+            for (pb, lp) in pr.iter().zip(lps) {
+                let c = cost(za, pb);
                 if c < best.0 - 1e-15 {
-                    best = (c, logk, z, p);
+                    best = (c, lz, lp);
+                    moved = true;
                 }
             }
         }
-        let span = (hi - lo) / 8.0;
-        let centre = 0.5 * (best.2.ln() + best.3.ln());
-        let half = (best.2.ln() - best.3.ln()).abs() / 2.0 + span;
-        lo = (centre - half).max((wmin / 100.0).ln());
-        hi = (centre + half).min((wmax * 100.0).ln());
+        if !moved {
+            step /= 2.0;
+        }
     }
-    let (_, logk, z, p) = best;
+    let (z, p) = (best.1.exp(), best.2.exp());
     let z = z.clamp(1e-6, 1e4);
     let p = p.clamp(1e-6, 1e4);
     // Recompute k for the clamped pole/zero, with a hair of margin for rounding in the file.
@@ -258,6 +276,56 @@ pub(crate) fn fit_weight(omega: &[f64], l: &[f64]) -> Option<(f64, f64, f64)> {
         .map(|(w, lv)| (lv - weight_mag(1.0, z, p, *w).ln()).exp())
         .fold(0.0, f64::max)
         * (1.0 + 1e-9);
-    let _ = logk;
     Some((k.clamp(1e-9, 1e3), z, p))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn log_grid(n: usize, lo: f64, hi: f64) -> Vec<f64> {
+        (0..n)
+            .map(|i| lo * (hi / lo).powf(i as f64 / (n - 1) as f64))
+            .collect()
+    }
+
+    #[test]
+    fn weight_of_an_exact_weight_shape_is_recovered() {
+        let w = log_grid(14, 0.5, 15.0);
+        let (k0, z0, p0) = (0.05, 1.5, 12.0);
+        let l: Vec<f64> = w.iter().map(|&w| weight_mag(k0, z0, p0, w)).collect();
+        let (k, z, p) = fit_weight(&w, &l).unwrap();
+        for (&w, &l) in w.iter().zip(&l) {
+            let m = weight_mag(k, z, p, w);
+            assert!(m >= l, "envelope violated at {w}: {m} < {l}");
+            assert!(m <= 1.001 * l, "loose at {w}: {m} vs {l}");
+        }
+        assert!(
+            (z / z0 - 1.0).abs() < 0.01 && (p / p0 - 1.0).abs() < 0.01,
+            "{z} {p}"
+        );
+    }
+
+    #[test]
+    fn weight_is_an_upper_envelope_of_scattered_levels() {
+        let w = log_grid(14, 0.5, 15.0);
+        // A rising spread with scatter: every point must lie under |W|.
+        let l: Vec<f64> = w
+            .iter()
+            .enumerate()
+            .map(|(i, &w)| 0.02 * (1.0 + w / 4.0) * (1.0 + 0.3 * ((i * 7 % 5) as f64 / 4.0)))
+            .collect();
+        let (k, z, p) = fit_weight(&w, &l).unwrap();
+        let ratio: Vec<f64> = w
+            .iter()
+            .zip(&l)
+            .map(|(&w, &l)| weight_mag(k, z, p, w) / l)
+            .collect();
+        assert!(ratio.iter().all(|&r| r >= 1.0), "{ratio:?}");
+        // Touches at least one point (k is the smallest that satisfies the envelope).
+        let min = ratio.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!(min < 1.0 + 1e-6, "{min}");
+        // And follows the rise: at most the scatter (1.3x) plus a little above the levels.
+        assert!(ratio.iter().all(|&r| r < 1.6), "{ratio:?}");
+    }
 }
