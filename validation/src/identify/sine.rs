@@ -221,9 +221,14 @@ pub(crate) fn fft_estimate<const S: usize>(
         2.0 * PI * k0 as f64 / n2 as f64,
         2.0 * PI * (k0 + 1) as f64 / n2 as f64,
     ];
-    let bins = windowed_dtft(signals[0], &alphas, beta);
+    // One pass over the first signal for the three bins and its phasor at omega.
+    let [b0, b1, b2, x0] = windowed_dtft(
+        signals[0],
+        &[alphas[0], alphas[1], alphas[2], omega * dt],
+        beta,
+    );
     let m = |x: Complex64| x.norm().max(1e-300).ln();
-    let (a, b, c) = (m(bins[0]), m(bins[1]), m(bins[2]));
+    let (a, b, c) = (m(b0), m(b1), m(b2));
     let d = a - 2.0 * b + c;
     let off = if d < 0.0 { 0.5 * (a - c) / d } else { 0.0 };
     let w_est = (k0 as f64 + off.clamp(-0.5, 0.5)) * bin_w;
@@ -231,7 +236,12 @@ pub(crate) fn fft_estimate<const S: usize>(
     // For y = |P| sin(omega t + phi), X = |P| e^{j(phi - pi/2)} gain, so P = j X / gain.
     let mut out = [Complex64::new(0.0, 0.0); S];
     for (j, sig) in signals.iter().enumerate() {
-        let [x] = windowed_dtft(sig, &[omega * dt], beta);
+        let x = if j == 0 {
+            x0
+        } else {
+            let [x] = windowed_dtft(sig, &[omega * dt], beta);
+            x
+        };
         out[j] = Complex64::new(0.0, 1.0) * x / gain;
     }
     (out, w_est)
@@ -412,10 +422,11 @@ fn fit_k<const S: usize, const K: usize>(
 ) -> Option<(HarmonicFit<S>, f64, f64)> {
     let n = signals.iter().map(|s| s.len()).min().unwrap_or(0);
     let m = 1 + 2 * K;
-    // r[a][j] = sum phi_a y_j; with `slope` also u = sum t phi_a y_j and v = sum t^2 phi_a y_j.
-    let mut r = [[0.0f64; S]; MAX_COLS];
-    let mut u = [[0.0f64; S]; MAX_COLS];
-    let mut v = [[0.0f64; S]; MAX_COLS];
+    // r[j][a] = sum phi_a y_j; with `slope` also u = sum t phi_a y_j and v = sum t^2 phi_a y_j
+    // (signal-major, so the per-sample updates run over contiguous regressors).
+    let mut r = [[0.0f64; MAX_COLS]; S];
+    let mut u = [[0.0f64; MAX_COLS]; S];
+    let mut v = [[0.0f64; MAX_COLS]; S];
     let mut yy = [0.0; S];
     if slope {
         accumulate::<S, K, true>(signals, n, omega, dt, &mut r, &mut u, &mut v, &mut yy);
@@ -431,7 +442,7 @@ fn fit_k<const S: usize, const K: usize>(
     let mut rss = [0.0; S];
     let mut xs = Vec::with_capacity(S);
     for j in 0..S {
-        let rj = nalgebra::DVector::from_iterator(m, (0..m).map(|a| r[a][j]));
+        let rj = nalgebra::DVector::from_iterator(m, (0..m).map(|a| r[j][a]));
         let x = chol.solve(&rj);
         rss[j] = (yy[j] - x.dot(&rj)).max(0.0);
         noise_var[j] = rss[j] / (n as f64 - m as f64).max(1.0);
@@ -469,10 +480,10 @@ fn fit_k<const S: usize, const K: usize>(
         for h in 1..=K {
             let (sa, ca) = (2 * h - 1, 2 * h);
             let hf = h as f64;
-            r1[sa] = hf * u[ca][j];
-            r1[ca] = -hf * u[sa][j];
-            r2[sa] = -hf * hf * v[sa][j];
-            r2[ca] = -hf * hf * v[ca][j];
+            r1[sa] = hf * u[j][ca];
+            r1[ca] = -hf * u[j][sa];
+            r2[sa] = -hf * hf * v[j][sa];
+            r2[ca] = -hf * hf * v[j][ca];
         }
         let m1x = &m1 * x;
         let gj = &r1 - &m1x;
@@ -485,7 +496,7 @@ fn fit_k<const S: usize, const K: usize>(
     Some((fit, d1, d2))
 }
 
-/// The data sums of [`fit_k`]: `r[a][j] = sum_k phi_a(k) y_j[k]` and, with `SLOPE`, the same
+/// The data sums of [`fit_k`]: `r[j][a] = sum_k phi_a(k) y_j[k]` and, with `SLOPE`, the same
 /// weighted by `t_k` (`u`) and `t_k^2` (`v`), `t_k = k dt`; `yy[j] = sum y_j^2`.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
@@ -494,12 +505,14 @@ fn accumulate<const S: usize, const K: usize, const SLOPE: bool>(
     n: usize,
     omega: f64,
     dt: f64,
-    r: &mut [[f64; S]; MAX_COLS],
-    u: &mut [[f64; S]; MAX_COLS],
-    v: &mut [[f64; S]; MAX_COLS],
+    r: &mut [[f64; MAX_COLS]; S],
+    u: &mut [[f64; MAX_COLS]; S],
+    v: &mut [[f64; MAX_COLS]; S],
     yy: &mut [f64; S],
 ) {
     let mut phi = [0.0f64; MAX_COLS];
+    // Sliced to exactly n so that the per-sample reads need no bounds checks.
+    let signals = signals.map(|s| &s[..n]);
     let (ds, dc) = (omega * dt).sin_cos();
     let (mut s1, mut c1) = (0.0f64, 1.0f64);
     for k in 0..n {
@@ -518,16 +531,16 @@ fn accumulate<const S: usize, const K: usize, const SLOPE: bool>(
         for j in 0..S {
             let y = signals[j][k];
             yy[j] += y * y;
-            r[0][j] += y;
+            r[j][0] += y;
             for a in 1..1 + 2 * K {
-                r[a][j] += phi[a] * y;
+                r[j][a] += phi[a] * y;
             }
             if SLOPE {
                 let ty = t * y;
                 let tty = t * ty;
                 for a in 1..1 + 2 * K {
-                    u[a][j] += phi[a] * ty;
-                    v[a][j] += phi[a] * tty;
+                    u[j][a] += phi[a] * ty;
+                    v[j][a] += phi[a] * tty;
                 }
             }
         }
