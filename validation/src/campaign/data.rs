@@ -422,16 +422,7 @@ impl<'a> Parser<'a> {
                         col.push(v);
                         p += len;
                     }
-                    None => {
-                        // Not a short decimal (e.g. 17 significant digits): the whole cell
-                        // through `str::parse`, as the general path would.
-                        let len = cell_len(&bytes[p..]);
-                        match parse_cell(&bytes[p..p + len]) {
-                            Ok(v) => col.push(v),
-                            Err(_) => return self.undo_row(),
-                        }
-                        p += len;
-                    }
+                    None => return self.undo_row(),
                 },
                 None => p += cell_len(&bytes[p..]),
             }
@@ -539,17 +530,10 @@ fn parse_cell(cell: &[u8]) -> Result<f64, String> {
     }
 }
 
-/// Exact powers of ten representable in an f64.
-const POW10: [f64; 23] = [
-    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
-    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
-];
-
-/// Clinger's fast path for the common short decimals (`-0.0031`, `12.5`, `4e-3`): when the
-/// decimal mantissa fits in 53 bits and the power of ten is exact, one IEEE multiplication or
-/// division gives the correctly rounded result, i.e. exactly what `str::parse` returns.
-/// Returns `None` for anything else (long mantissas, big exponents, `inf`, junk, whitespace);
-/// the caller then falls back to `str::parse`.
+/// The exact fast path (Eisel-Lemire, Clinger for short decimals) for a cell that is a finite
+/// decimal and nothing else: the correctly rounded value, so exactly what `str::parse` returns.
+/// `None` for anything else (`inf`, `nan`, whitespace, junk); the caller then goes through
+/// `str::parse`, which also words the errors.
 #[inline]
 fn fast_f64(s: &[u8]) -> Option<f64> {
     match fast_f64_prefix(s) {
@@ -558,93 +542,14 @@ fn fast_f64(s: &[u8]) -> Option<f64> {
     }
 }
 
-/// [`fast_f64`] on the longest prefix of `s` shaped like a decimal
-/// (`[+-]digits[.digits][(e|E)[+-]digits]`); returns the value and the prefix length. `None`
-/// when the prefix has no digit, a mantissa of more than 19 digits or beyond 2^53, an exponent
-/// marker without digits or with more than 4, or a power of ten that is not exact. A cell is
-/// taken by the fast path exactly when this accepts a prefix that is the whole cell.
+/// [`fast_f64`] on the longest prefix of `s` that is a decimal number; returns the value and
+/// the prefix length, `None` when there is none or it is not finite.
 #[inline(always)]
 fn fast_f64_prefix(s: &[u8]) -> Option<(f64, usize)> {
-    let (neg, mut i) = match s.first() {
-        Some(b'-') => (true, 1),
-        Some(b'+') => (false, 1),
-        _ => (false, 0),
-    };
-    // The mantissa's digits and the decimal point in one pass. Wrapping: a mantissa of more
-    // than 19 digits is rejected below, and up to 19 digits fit in a u64.
-    let start = i;
-    let mut mantissa: u64 = 0;
-    let mut dot = usize::MAX;
-    while let Some(&c) = s.get(i) {
-        let d = c.wrapping_sub(b'0');
-        if d <= 9 {
-            mantissa = mantissa.wrapping_mul(10).wrapping_add(d as u64);
-        } else if c == b'.' && dot == usize::MAX {
-            dot = i;
-        } else {
-            break;
-        }
-        i += 1;
+    match fast_float2::parse_partial::<f64, _>(s) {
+        Ok((v, len)) if v.is_finite() => Some((v, len)),
+        _ => None,
     }
-    let (digits, mut exp) = if dot == usize::MAX {
-        (i - start, 0i32)
-    } else {
-        (i - start - 1, -((i - dot - 1) as i32))
-    };
-    if digits > 19 {
-        return None;
-    }
-    if digits == 0 {
-        return None;
-    }
-    if let Some(&c) = s.get(i) {
-        if c | 0x20 == b'e' {
-            i += 1;
-            let eneg = match s.get(i) {
-                Some(b'-') => {
-                    i += 1;
-                    true
-                }
-                Some(b'+') => {
-                    i += 1;
-                    false
-                }
-                _ => false,
-            };
-            let mut e = 0i32;
-            let mut edigits = 0;
-            while let Some(&c) = s.get(i) {
-                let d = c.wrapping_sub(b'0');
-                if d > 9 {
-                    break;
-                }
-                if edigits == 4 {
-                    return None;
-                }
-                e = e * 10 + d as i32;
-                edigits += 1;
-                i += 1;
-            }
-            if edigits == 0 {
-                return None;
-            }
-            exp += if eneg { -e } else { e };
-        }
-    }
-    if mantissa > 1 << 53 {
-        return None;
-    }
-    let m = mantissa as f64;
-    let v = if mantissa == 0 {
-        0.0
-    } else if (0..=22).contains(&exp) {
-        m * POW10[exp as usize]
-    } else if (-22..0).contains(&exp) {
-        m / POW10[(-exp) as usize]
-    } else {
-        return None;
-    };
-    Some((if neg { -v } else { v }, i))
 }
 
 fn shorten(s: &str) -> String {
@@ -877,14 +782,17 @@ mod tests {
             "123456789012345678901",
             "1e-0005",
             "00000000000000000001",
+            "5.0200000000000005",
+            "-0.000064421",
+            "1e400",
+            "1e-400",
+            "infinity",
+            "0x10",
         ] {
+            // Taken exactly when std reads a finite number, and then the same bits.
+            let std = s.parse::<f64>().ok().filter(|v| v.is_finite());
             let fast = fast_f64(s.as_bytes());
-            if let Some(v) = fast {
-                let std: f64 = s
-                    .parse()
-                    .unwrap_or_else(|_| panic!("{s:?} accepted by the fast path only"));
-                assert_eq!(v.to_bits(), std.to_bits(), "{s:?}");
-            }
+            assert_eq!(fast.map(f64::to_bits), std.map(f64::to_bits), "{s:?}");
         }
     }
 
@@ -893,10 +801,9 @@ mod tests {
 
         #[test]
         fn fast_path_agrees_with_std_on_random_decimals(s in "[-+]?[0-9]{0,20}(\\.[0-9]{0,20})?([eE][-+]?[0-9]{0,4})?") {
-            if let Some(v) = fast_f64(s.as_bytes()) {
-                let std: f64 = s.parse().unwrap();
-                proptest::prop_assert_eq!(v.to_bits(), std.to_bits(), "{:?}", s);
-            }
+            let std = s.parse::<f64>().ok().filter(|v| v.is_finite());
+            let fast = fast_f64(s.as_bytes());
+            proptest::prop_assert_eq!(fast.map(f64::to_bits), std.map(f64::to_bits), "{:?}", s);
         }
 
         #[test]
