@@ -38,8 +38,9 @@ use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
 use zmp_models::effect::BuildContext;
-use zmp_models::effects::servo::servo_first_harmonic;
+use zmp_models::effects::servo::{servo_first_harmonic, servo_first_harmonic_from, PeriodStart};
 use zmp_models::{Axis, Binding, Channel, EffectInstance, ModelSpec, Plant};
 
 /// The SILO2 values of the first seed (section 6), for comparison in reports.
@@ -882,18 +883,29 @@ fn estimate_limit(
     // limit over the linear servo's (what `frequency_response` of the effect computes); the
     // linear runs do not depend on the limit, so they are done once, and the runs of one
     // evaluation are shared out over the worker threads (each one is a long simulation).
-    let first_harmonics = |limit: Option<f64>| -> Vec<Complex64> {
+    // A saturated servo settles slowly from rest, so each run of the search starts from the
+    // periodic orbit of the search's previous limit (the linear orbit for the first).
+    let starts: Mutex<Vec<Option<PeriodStart>>> = Mutex::new(vec![None; keys.len()]);
+    let first_harmonics = |limit: Option<f64>, keep_orbit: bool| -> Vec<Complex64> {
+        let from = starts.lock().unwrap_or_else(|p| p.into_inner()).clone();
         let run = |k: usize| {
             let (w, a) = keys[k];
             let mut limits: Vec<Box<dyn zmp_models::Effect>> =
                 limit.iter().map(|&l| (info.build)(&ctx, &[l])).collect();
-            servo_first_harmonic(p[8], p[9], h, &mut limits, w, a)
+            servo_first_harmonic_from(p[8], p[9], h, &mut limits, w, a, from[k])
         };
-        parallel_map(keys.len(), threads, run)
+        let out = parallel_map(keys.len(), threads, run);
+        if keep_orbit {
+            *starts.lock().unwrap_or_else(|p| p.into_inner()) =
+                out.iter().map(|o| Some(o.1)).collect();
+        }
+        out.into_iter().map(|o| o.0).collect()
     };
-    let linear = first_harmonics(None);
-    let chi2 = |limit: f64| -> f64 {
-        let nf: Vec<Complex64> = first_harmonics(Some(limit))
+    let linear = first_harmonics(None, true);
+    // `keep_orbit`: the search's own evaluations pass their orbit on; the two curvature points,
+    // evaluated at once, start from the search's last and leave it alone (deterministic).
+    let chi2 = |limit: f64, keep_orbit: bool| -> f64 {
+        let nf: Vec<Complex64> = first_harmonics(Some(limit), keep_orbit)
             .iter()
             .zip(&linear)
             .map(|(with, without)| with / without)
@@ -926,13 +938,15 @@ fn estimate_limit(
     // evaluation is a long saturated simulation, and parabolic steps need fewer of them than
     // golden sections alone.
     let (x, c0) = brent_minimise((0.05 * top).ln(), (1.2 * top).ln(), 5e-5, 60, |x| {
-        chi2(x.exp())
+        chi2(x.exp(), true)
     });
     let l = x.exp();
     // Standard error from the curvature of chi-square, scaled by the reduced chi-square (the
     // two side evaluations at once).
     let d = 0.01 * l;
-    let side = parallel_map(2, threads, |i| chi2(if i == 0 { l - d } else { l + d }));
+    let side = parallel_map(2, threads, |i| {
+        chi2(if i == 0 { l - d } else { l + d }, false)
+    });
     let (cm, cp) = (side[0], side[1]);
     let curv = (cm - 2.0 * c0 + cp) / (d * d);
     let dof = (2 * sat.len()).saturating_sub(1).max(1) as f64;

@@ -285,29 +285,72 @@ pub fn servo_first_harmonic(
     omega: f64,
     amplitude: f64,
 ) -> Complex64 {
+    servo_first_harmonic_from(omega_n, zeta, h, limits, omega, amplitude, None).0
+}
+
+/// Where a describing-function run's periods start: the servo's position and velocity at
+/// that phase of the reference. A run started there from the orbit of nearby limits settles
+/// in a few periods instead of the tens a saturated servo needs from rest.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PeriodStart {
+    position: f64,
+    velocity: f64,
+}
+
+/// [`servo_first_harmonic`], started at `start` (the state a previous run at the same
+/// `omega` and `amplitude` returned) instead of settling from rest; also returns the state
+/// at the end of its last period, to start the next run from. The result is the same
+/// periodic response, to the settling tolerance (1e-8 relative per period).
+pub fn servo_first_harmonic_from(
+    omega_n: f64,
+    zeta: f64,
+    h: f64,
+    limits: &mut [Box<dyn Effect>],
+    omega: f64,
+    amplitude: f64,
+    start: Option<PeriodStart>,
+) -> (Complex64, PeriodStart) {
     let period = 2.0 * std::f64::consts::PI / omega;
     let target = h.max((period / 2048.0).min(2.5 * h));
     let per = ((period / target).ceil() as usize).max(16);
     let h_df = period / per as f64;
     let mut servo = Servo::new(omega_n, zeta, h_df);
-    servo.reset(0.0);
     let slowest = TrackingLowpass { omega_n, zeta }.slowest_time_constant();
     let n_settle = (((8.0 * slowest).max(0.5 * period)) / h_df).ceil() as usize;
     // The reference by rotation: e^{j w k h}, renormalised once per period.
     let rot = Complex64::from_polar(1.0, omega * h_df);
     let mut e = Complex64::new(1.0, 0.0);
-    for _ in 0..n_settle {
-        e *= rot;
-        servo.step(amplitude * e.im, limits);
+    match start {
+        None => {
+            servo.reset(0.0);
+            for _ in 0..n_settle {
+                e *= rot;
+                servo.step(amplitude * e.im, limits);
+            }
+        }
+        Some(s) => {
+            // The periods start at the phase the settling ends at.
+            e = Complex64::from_polar(1.0, omega * h_df * n_settle as f64);
+            servo.reset(amplitude * e.im);
+            servo.x = s.position;
+            servo.v = s.velocity;
+        }
     }
+    let end = |servo: &Servo| PeriodStart {
+        position: servo.x,
+        velocity: servo.v,
+    };
     // One-period phasors, newest last. A response periodic over m input periods (a saturated
     // servo can lock into a subharmonic cycle) repeats them with period m; the Fourier
-    // coefficient at omega over those m periods is their mean.
+    // coefficient at omega over those m periods is their mean. Only the periods since the
+    // last jump of the orbit extrapolation (below) are compared.
     let mut history: Vec<Complex64> = Vec::with_capacity(FAST_PERIODS);
+    let mut since = 0;
+    let mut states: Vec<[f64; 2]> = vec![[servo.x, servo.v]];
     let same = |a: Complex64, b: Complex64| {
         (a - b).norm() <= FAST_SETTLED_REL * a.norm().max(b.norm()).max(1e-300)
     };
-    for _ in 0..FAST_PERIODS {
+    for period in 0..FAST_PERIODS {
         // Sin-referenced phasor over one whole period: p = (2j/N) sum y_k e^{-j w t_k}.
         let mut acc = Complex64::new(0.0, 0.0);
         for _ in 0..per {
@@ -319,20 +362,83 @@ pub fn servo_first_harmonic(
         history.push(acc * Complex64::new(0.0, 2.0 / per as f64));
         let n = history.len();
         for m in 1..=FAST_SUBHARMONIC {
-            if n > m + 1
+            if n > since + m + 1
                 && same(history[n - 1], history[n - 1 - m])
                 && (m == 1 || same(history[n - 2], history[n - 2 - m]))
             {
                 let mean = history[n - m..].iter().sum::<Complex64>() / m as f64;
-                return mean / amplitude;
+                return (mean / amplitude, end(&servo));
             }
+        }
+        // A saturated servo approaches its orbit slowly (tens of periods). Near the orbit the
+        // period map is linear, so four successive period-start states give it and its fixed
+        // point; the run jumps there and goes on simulating (the test above still decides).
+        states.push([servo.x, servo.v]);
+        if period < FAST_PERIODS / 2 && states.len() == 4 {
+            if let Some([x, v]) = periodic_fixed_point(&states) {
+                servo.x = x;
+                servo.v = v;
+                servo.c_end = f64::NAN;
+                since = history.len();
+            }
+            states.clear();
+            states.push([servo.x, servo.v]);
         }
     }
     // Not locked to a cycle of up to six periods within sixty: the Fourier coefficient over
     // the last twelve periods (a whole number of cycles of 1, 2, 3, 4 or 6 periods), the
     // describing function of a response that wanders.
     let n = history.len();
-    history[n - 12..].iter().sum::<Complex64>() / (12.0 * amplitude)
+    (
+        history[n - 12..].iter().sum::<Complex64>() / (12.0 * amplitude),
+        end(&servo),
+    )
+}
+
+/// The fixed point of the linear map `s_{k+1} - s* = J (s_k - s*)` through four successive
+/// states, if `J` contracts clearly (spectral radius below 0.95; a map near a flip or an
+/// unstable orbit is left to plain iteration).
+fn periodic_fixed_point(s: &[[f64; 2]]) -> Option<[f64; 2]> {
+    let d = |k: usize| [s[k + 1][0] - s[k][0], s[k + 1][1] - s[k][1]];
+    let (d0, d1, d2) = (d(0), d(1), d(2));
+    // J [d0 d1] = [d1 d2].
+    let det = d0[0] * d1[1] - d1[0] * d0[1];
+    let scale = (d0[0].hypot(d0[1]) * d1[0].hypot(d1[1])).max(1e-300);
+    if det.abs() <= 1e-9 * scale {
+        return None;
+    }
+    let inv = [[d1[1] / det, -d1[0] / det], [-d0[1] / det, d0[0] / det]];
+    let j = [
+        [
+            d1[0] * inv[0][0] + d2[0] * inv[1][0],
+            d1[0] * inv[0][1] + d2[0] * inv[1][1],
+        ],
+        [
+            d1[1] * inv[0][0] + d2[1] * inv[1][0],
+            d1[1] * inv[0][1] + d2[1] * inv[1][1],
+        ],
+    ];
+    // Eigenvalues of J from its trace and determinant.
+    let (tr, dt) = (j[0][0] + j[1][1], j[0][0] * j[1][1] - j[0][1] * j[1][0]);
+    let disc = tr * tr / 4.0 - dt;
+    let radius = if disc >= 0.0 {
+        (tr / 2.0).abs() + disc.sqrt()
+    } else {
+        dt.abs().sqrt()
+    };
+    if radius.is_nan() || radius >= 0.95 {
+        return None;
+    }
+    // (I - J) s* = s3 - J s2.
+    let s2 = s[2];
+    let rhs = [
+        s[3][0] - (j[0][0] * s2[0] + j[0][1] * s2[1]),
+        s[3][1] - (j[1][0] * s2[0] + j[1][1] * s2[1]),
+    ];
+    let (a, b, c, e) = (1.0 - j[0][0], -j[0][1], -j[1][0], 1.0 - j[1][1]);
+    let m = a * e - b * c;
+    let x = [(rhs[0] * e - b * rhs[1]) / m, (a * rhs[1] - c * rhs[0]) / m];
+    x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
 #[cfg(test)]
@@ -397,5 +503,88 @@ mod tests {
             worst < 2e-7,
             "fast path departs from fine RK4 by {worst} m (amplitude 5 mm)"
         );
+    }
+
+    /// The plain steady state: settle from rest for `periods` periods at the describing
+    /// function's own step, then one period's Fourier sum (no extrapolation, no early stop).
+    fn plain_first_harmonic(
+        kind: &str,
+        value: f64,
+        omega: f64,
+        amplitude: f64,
+        periods: usize,
+    ) -> Complex64 {
+        let h: f64 = 1e-3;
+        let period = 2.0 * std::f64::consts::PI / omega;
+        let per = ((period / h.max((period / 2048.0).min(2.5 * h))).ceil() as usize).max(16);
+        let h_df = period / per as f64;
+        let mut servo = Servo::new(30.0, 1.0, h_df);
+        let mut l = [limit(kind, value, h)];
+        servo.reset(0.0);
+        let mut acc = Complex64::new(0.0, 0.0);
+        for k in 1..=periods * per {
+            let t = k as f64 * h_df;
+            let x = servo.step(amplitude * (omega * t).sin(), &mut l).position;
+            if k > (periods - 1) * per {
+                acc += x * Complex64::from_polar(1.0, -omega * t);
+            }
+        }
+        acc * Complex64::new(0.0, 2.0 / per as f64) / amplitude
+    }
+
+    /// Deep saturation settles over tens of periods; the orbit extrapolation must land on the
+    /// same periodic response as a plain 400-period run, and a run started from another
+    /// limit's orbit too.
+    #[test]
+    fn extrapolated_and_warm_started_runs_find_the_plain_steady_state() {
+        let (omega, amplitude) = (15.0, 0.008);
+        for value in [0.6, 1.2, 1.6] {
+            let plain =
+                plain_first_harmonic("acceleration_saturation", value, omega, amplitude, 400);
+            let mut l = [limit("acceleration_saturation", value, 1e-3)];
+            let (cold, _) =
+                servo_first_harmonic_from(30.0, 1.0, 1e-3, &mut l, omega, amplitude, None);
+            let mut other = [limit("acceleration_saturation", 1.1 * value, 1e-3)];
+            let (_, orbit) =
+                servo_first_harmonic_from(30.0, 1.0, 1e-3, &mut other, omega, amplitude, None);
+            let (warm, _) =
+                servo_first_harmonic_from(30.0, 1.0, 1e-3, &mut l, omega, amplitude, Some(orbit));
+            for (what, got) in [("extrapolated", cold), ("warm-started", warm)] {
+                let rel = (got - plain).norm() / plain.norm();
+                assert!(
+                    rel < 1e-7,
+                    "limit {value}: {what} run off the plain steady state by {rel:e}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn fixed_point_of_a_linear_period_map_is_exact() {
+        let j = [[0.6, 0.2], [-0.1, 0.7]];
+        let fixed = [0.3, -1.2];
+        let mut s = vec![[1.0, 2.0]];
+        for _ in 0..3 {
+            let d = [
+                s.last().unwrap()[0] - fixed[0],
+                s.last().unwrap()[1] - fixed[1],
+            ];
+            s.push([
+                fixed[0] + j[0][0] * d[0] + j[0][1] * d[1],
+                fixed[1] + j[1][0] * d[0] + j[1][1] * d[1],
+            ]);
+        }
+        let got = periodic_fixed_point(&s).unwrap();
+        assert!(
+            (got[0] - fixed[0]).abs() < 1e-12 && (got[1] - fixed[1]).abs() < 1e-12,
+            "{got:?}"
+        );
+        // A flip (eigenvalue -1.05) is left to plain iteration.
+        let mut s = vec![[1.0, 2.0]];
+        for _ in 0..3 {
+            let p = *s.last().unwrap();
+            s.push([-1.05 * p[0], 0.5 * p[1]]);
+        }
+        assert!(periodic_fixed_point(&s).is_none());
     }
 }
