@@ -40,7 +40,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use zmp_models::effect::BuildContext;
-use zmp_models::effects::servo::{servo_first_harmonic, servo_first_harmonic_from, PeriodStart};
+use zmp_models::effects::servo::{servo_first_harmonic_from, PeriodStart};
 use zmp_models::{Axis, Binding, Channel, EffectInstance, ModelSpec, Plant};
 
 /// The SILO2 values of the first seed (section 6), for comparison in reports.
@@ -1316,6 +1316,7 @@ pub fn summary_json(ident: &Identification) -> serde_json::Value {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use zmp_models::effects::servo::servo_first_harmonic;
 
     /// `estimate_limit` splits the effect's describing function into a run with the limit and
     /// a linear run it does once: the ratio must be the effect's own `frequency_response`.
