@@ -375,11 +375,22 @@ pub fn servo_first_harmonic_from(
         // point; the run jumps there and goes on simulating (the test above still decides).
         states.push([servo.x, servo.v]);
         if period < FAST_PERIODS / 2 && states.len() == 4 {
-            if let Some([x, v]) = periodic_fixed_point(&states) {
-                servo.x = x;
-                servo.v = v;
-                servo.c_end = f64::NAN;
-                since = history.len();
+            // A jump costs three periods before the test can pass again: worth it only when
+            // plain iteration would take longer (a fast-contracting map settles by itself).
+            if let Some(([x, v], radius)) = periodic_fixed_point(&states) {
+                let [a, b] = [states[3][0] - states[2][0], states[3][1] - states[2][1]];
+                let rel = a.hypot(b) / states[3][0].hypot(states[3][1]).max(1e-300);
+                let plain = if rel <= FAST_SETTLED_REL {
+                    0.0
+                } else {
+                    (FAST_SETTLED_REL / rel).ln() / radius.ln()
+                };
+                if plain > 3.0 {
+                    servo.x = x;
+                    servo.v = v;
+                    servo.c_end = f64::NAN;
+                    since = history.len();
+                }
             }
             states.clear();
             states.push([servo.x, servo.v]);
@@ -396,9 +407,9 @@ pub fn servo_first_harmonic_from(
 }
 
 /// The fixed point of the linear map `s_{k+1} - s* = J (s_k - s*)` through four successive
-/// states, if `J` contracts clearly (spectral radius below 0.95; a map near a flip or an
-/// unstable orbit is left to plain iteration).
-fn periodic_fixed_point(s: &[[f64; 2]]) -> Option<[f64; 2]> {
+/// states and the spectral radius of `J`, if `J` contracts clearly (radius below 0.95; a map
+/// near a flip or an unstable orbit is left to plain iteration).
+fn periodic_fixed_point(s: &[[f64; 2]]) -> Option<([f64; 2], f64)> {
     let d = |k: usize| [s[k + 1][0] - s[k][0], s[k + 1][1] - s[k][1]];
     let (d0, d1, d2) = (d(0), d(1), d(2));
     // J [d0 d1] = [d1 d2].
@@ -438,7 +449,7 @@ fn periodic_fixed_point(s: &[[f64; 2]]) -> Option<[f64; 2]> {
     let (a, b, c, e) = (1.0 - j[0][0], -j[0][1], -j[1][0], 1.0 - j[1][1]);
     let m = a * e - b * c;
     let x = [(rhs[0] * e - b * rhs[1]) / m, (a * rhs[1] - c * rhs[0]) / m];
-    x.iter().all(|v| v.is_finite()).then_some(x)
+    x.iter().all(|v| v.is_finite()).then_some((x, radius))
 }
 
 #[cfg(test)]
@@ -574,7 +585,8 @@ mod tests {
                 fixed[1] + j[1][0] * d[0] + j[1][1] * d[1],
             ]);
         }
-        let got = periodic_fixed_point(&s).unwrap();
+        let (got, radius) = periodic_fixed_point(&s).unwrap();
+        assert!((radius - 0.44f64.sqrt()).abs() < 1e-9, "{radius}");
         assert!(
             (got[0] - fixed[0]).abs() < 1e-12 && (got[1] - fixed[1]).abs() < 1e-12,
             "{got:?}"
