@@ -26,21 +26,23 @@ fn bench(c: &mut Criterion) {
     g.bench_function("read_and_fit_168", |b| b.iter(|| black_box(pipeline(&dir))));
     g.finish();
 
-    // Same run: our wall time (median of 11, each a whole read + identify) against the numpy
-    // peer's (median of 3, each a fresh interpreter timing its own read + fit).
-    let mut ours: Vec<f64> = (0..11)
-        .map(|_| {
+    // Same run, interleaved so that both sides see the same phases of a shared machine: three
+    // rounds of five runs of ours (each a whole read + identify) and one run of the numpy peer
+    // (a fresh interpreter timing its own read + fit); medians over the 15 and the 3.
+    let py = python();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("peers/identify_numpy.py");
+    let mut ours: Vec<f64> = Vec::new();
+    let mut peer = Vec::new();
+    let mut peer_ok = true;
+    for _ in 0..3 {
+        ours.extend((0..5).map(|_| {
             let t = Instant::now();
             black_box(pipeline(&dir));
             t.elapsed().as_secs_f64()
-        })
-        .collect();
-    ours.sort_by(|a, b| a.total_cmp(b));
-    let ours = ours[ours.len() / 2];
-    let py = python();
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("peers/identify_numpy.py");
-    let mut peer = Vec::new();
-    for _ in 0..3 {
+        }));
+        if !peer_ok {
+            continue;
+        }
         match std::process::Command::new(&py)
             .arg(&script)
             .arg(&dir)
@@ -53,14 +55,16 @@ fn bench(c: &mut Criterion) {
             }
             Ok(o) => {
                 eprintln!("numpy peer failed: {}", String::from_utf8_lossy(&o.stderr));
-                break;
+                peer_ok = false;
             }
             Err(e) => {
                 eprintln!("numpy peer not run ({}: {e}); set ZMP_PYTHON", py.display());
-                break;
+                peer_ok = false;
             }
         }
     }
+    ours.sort_by(|a, b| a.total_cmp(b));
+    let ours = ours[ours.len() / 2];
     if peer.is_empty() {
         println!("identify/read_and_fit_168: ours {ours:.3} s; numpy peer not run");
     } else {
