@@ -15,7 +15,6 @@ pub use manifest::parse_manifest;
 pub use write::write_campaign;
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use zmp_models::Axis;
 
 /// The value of the `format` key this module reads and writes.
@@ -211,56 +210,11 @@ pub fn read_campaign(dir: &Path) -> Result<Campaign, CampaignError> {
 }
 
 /// Runs `job(0..n)` on up to `available_parallelism` scoped threads and collects the results in
-/// index order. On failure returns the error of the smallest failing index; indices above a
-/// known failure are skipped.
+/// index order; on failure the error of the smallest failing index.
 pub(crate) fn for_each_parallel<T: Send>(
     n: usize,
     job: impl Fn(usize) -> Result<T, CampaignError> + Sync,
 ) -> Result<Vec<T>, CampaignError> {
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |w| w.get())
-        .min(n);
-    if workers <= 1 {
-        return (0..n).map(&job).collect();
-    }
-    let next = AtomicUsize::new(0);
-    let first_failure = AtomicUsize::new(usize::MAX);
-    let parts: Vec<Vec<(usize, Result<T, CampaignError>)>> = std::thread::scope(|scope| {
-        let handles: Vec<_> = (0..workers)
-            .map(|_| {
-                scope.spawn(|| {
-                    let mut done = Vec::new();
-                    loop {
-                        let i = next.fetch_add(1, Ordering::Relaxed);
-                        if i >= n || i > first_failure.load(Ordering::Relaxed) {
-                            break;
-                        }
-                        let result = job(i);
-                        if result.is_err() {
-                            first_failure.fetch_min(i, Ordering::Relaxed);
-                        }
-                        done.push((i, result));
-                    }
-                    done
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
-            .collect()
-    });
-    let mut slots: Vec<Option<Result<T, CampaignError>>> = (0..n).map(|_| None).collect();
-    for (i, result) in parts.into_iter().flatten() {
-        slots[i] = Some(result);
-    }
-    let mut out = Vec::with_capacity(n);
-    for slot in slots {
-        // Every index below the first failure was processed, so the first gap comes after it.
-        match slot.expect("indices below the first failure are always processed") {
-            Ok(v) => out.push(v),
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(out)
+    let workers = std::thread::available_parallelism().map_or(1, |w| w.get());
+    crate::par::try_parallel_map(n, workers, job)
 }
