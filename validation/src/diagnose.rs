@@ -1,7 +1,8 @@
-//! Compare a model with a campaign, find where it fails, and name the physical effect that is
-//! missing: every catalogued effect is fitted with the model's core parameters and scored on
-//! held-out records; effects are added forward while they remove a significant part of the
-//! error.
+//! Compare a model with a campaign, find where it fails, and name the physical effects that
+//! are missing: every catalogued effect is fitted with every parameter of the model and scored
+//! on held-out records; effects are added forward (or in pairs when they mask each other)
+//! while they pass a held-out likelihood-ratio test and remove a relevant part of what is
+//! left.
 
 pub mod augment;
 pub mod candidates;
@@ -13,5 +14,6 @@ pub mod measure;
 pub mod observe;
 pub mod report;
 pub mod run;
+pub mod select;
 
 pub use run::{diagnose, DiagnoseError, DiagnoseOptions, Diagnosis, Finding, DIAGNOSIS_FORMAT};

@@ -26,8 +26,10 @@
 #![allow(clippy::needless_range_loop)]
 
 mod fit;
+mod noise;
 pub mod report;
 mod sine;
+mod steady;
 
 use crate::campaign::{Campaign, Record};
 use crate::par::parallel_map;
@@ -56,6 +58,48 @@ pub const SEED_PENDULUM: [(&str, f64); 8] = [
 ];
 /// The seed's tracking low-pass `(omega_n, zeta)` (section 6.3).
 pub const SEED_BANDWIDTH: (f64, f64) = (30.0, 1.0);
+
+/// Reduced chi-square above which the pendulum fit counts as poor (said in words, and the
+/// low-pass is compared with a low-pass and a delay).
+pub const POOR_FIT: f64 = 4.0;
+
+/// The pendulum and low-pass fitted again with a pure delay in front: what a low-pass that
+/// absorbed a delay would have been.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DelayAlternative {
+    pub delay_s: f64,
+    pub omega_n: f64,
+    pub zeta: f64,
+    pub reduced_chi2: f64,
+}
+
+/// The pendulum fit with a pure delay `tau` as a fixed factor `e^{-j w tau}` of every point,
+/// `tau` chosen by Brent's method on the chi-square within `[0, min(0.5 s, 3 / omega_n)]`.
+fn delay_alternative_fit(
+    pts: &[Point],
+    (wn0, z0): (f64, f64),
+    wn_fit: f64,
+) -> Option<DelayAlternative> {
+    let with_delay = |tau: f64| -> Vec<Point> {
+        pts.iter()
+            .map(|p| Point {
+                factor: p.factor * Complex64::from_polar(1.0, -p.omega * tau),
+                ..*p
+            })
+            .collect()
+    };
+    let fit_at = |tau: f64| pendulum_fit(&with_delay(tau), (wn0.max(wn_fit), z0), false).ok();
+    let chi = |tau: f64| fit_at(tau).map_or(f64::INFINITY, |(l, _, _)| l.chi2);
+    let hi = (3.0 / wn_fit.max(1.0)).min(0.5);
+    let (tau, _) = brent_minimise(0.0, hi, 1e-5, 40, chi);
+    let (l, _, _) = fit_at(tau)?;
+    (l.dof > 0).then(|| DelayAlternative {
+        delay_s: tau,
+        omega_n: l.params[8],
+        zeta: l.params[9],
+        reduced_chi2: l.chi2 / l.dof as f64,
+    })
+}
 
 /// Options of [`identify`].
 #[derive(Debug, Clone)]
@@ -138,6 +182,58 @@ pub struct RecordFit {
     pub periods: usize,
     /// `Some(reason)` if the record is not used in the linear fit.
     pub excluded: Option<String>,
+    /// The steady-state components the diagnosis compares (`None` for a record that could
+    /// not be analysed).
+    #[serde(skip)]
+    pub components: Option<SteadyComponents>,
+}
+
+/// The steady-state components of a record from its harmonic fit (with a trend column), and
+/// the noise they carry: what the diagnosis compares with a model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SteadyComponents {
+    /// Steady-state window: first and last sample time, s (the record's own clock).
+    pub t0: f64,
+    pub t1: f64,
+    pub samples: usize,
+    /// Frequency the components were fitted at (refined), rad/s.
+    pub omega: f64,
+    /// First-harmonic phasor of the excited input (sin-referenced, phase from the window's
+    /// start), m.
+    pub u1: Complex64,
+    /// First- and third-harmonic phasors of `[zmp_x, zmp_y]`, same reference, m.
+    pub y1: [Complex64; 2],
+    pub y3: [Complex64; 2],
+    /// Linear trend of each output over the window, m/s.
+    pub trend: [f64; 2],
+    /// Residual variance of the harmonic fit of each output (white-noise estimate), m².
+    pub residual_var: [f64; 2],
+    /// Residual variance of the harmonic fit of the excited input, m².
+    pub input_residual_var: f64,
+    /// Residual power beside the excitation and near zero frequency over the residual
+    /// variance, per output: this record's own colour estimate.
+    pub colour_raw: [(f64, f64); 2],
+    /// Middle frequency of the near-zero bins, rad/s.
+    pub zero_band_omega: f64,
+    /// The campaign's pooled colour factors at this record's frequency and near zero
+    /// (1 for white noise).
+    pub colour: [(f64, f64); 2],
+    /// Variance factors of the fit: inverse normal matrix at the fundamental's sin and cos
+    /// columns, and at the trend column (1/s²).
+    pub inv_diag_h1: [f64; 2],
+    pub inv_diag_trend: f64,
+}
+
+impl SteadyComponents {
+    /// Variance of the real (and of the imaginary) part of `y1[i]`, m².
+    pub fn y1_var(&self, i: usize) -> f64 {
+        self.residual_var[i] * self.colour[i].0 * 0.5 * (self.inv_diag_h1[0] + self.inv_diag_h1[1])
+    }
+
+    /// Variance of `trend[i]`, (m/s)².
+    pub fn trend_var(&self, i: usize) -> f64 {
+        self.residual_var[i] * self.colour[i].1 * self.inv_diag_trend
+    }
 }
 
 fn ser_complex2<S: serde::Serializer>(g: &[Complex64; 2], s: S) -> Result<S::Ok, S::Error> {
@@ -234,6 +330,9 @@ pub struct ChannelUncertainty {
 /// Everything identification found.
 #[derive(Debug, Clone)]
 pub struct Identification {
+    /// When the pendulum fit is poor: the same fit with a pure delay in front of the
+    /// low-pass, for comparison (reported, not put in the model).
+    pub delay_alternative: Option<DelayAlternative>,
     pub campaign_name: Option<String>,
     pub records: Vec<RecordFit>,
     /// `a[i][j]`, `b[i][j]` with their standard errors.
@@ -336,6 +435,7 @@ fn excluded(rec: &Record, index: usize, why: &str) -> RecordFit {
         steady_start_s: 0.0,
         periods: 0,
         excluded: Some(why.to_string()),
+        components: None,
     }
 }
 
@@ -378,7 +478,7 @@ pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> Rec
         return excluded(rec, index, reason::BAD_DATA);
     }
     // 1. Steady state.
-    let Some(st) = sine::detect_steady([&u[..], &yx[..], &yy[..]], omega, dt) else {
+    let Some(st) = steady::detect_steady([&u[..], &yx[..], &yy[..]], omega, dt) else {
         return excluded(rec, index, reason::TOO_SHORT);
     };
     let steady_start_s = st.start as f64 * dt;
@@ -400,11 +500,34 @@ pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> Rec
         r.periods = st.periods;
         return r;
     }
-    // 3. Harmonic regression with the frequency refined.
+    // 3. Harmonic regression with a trend column (a drifting sensor's ramp stays out of the
+    // harmonics), the frequency refined on the detrended signals, then the final fit at the
+    // refined frequency.
     let k_max = opts.harmonics.clamp(1, 8);
-    let Some((w, hf)) = sine::refine_frequency(sig, omega, dt, k_max) else {
+    let Some(first) = sine::harmonic_fit_trend(sig, omega, dt, k_max) else {
         return excluded(rec, index, reason::BAD_DATA);
     };
+    let c = (st.len as f64 - 1.0) / 2.0;
+    let detrended: [Vec<f64>; 3] = std::array::from_fn(|j| {
+        let r = first.trend[j] * dt;
+        sig[j]
+            .iter()
+            .enumerate()
+            .map(|(k, y)| y - r * (k as f64 - c))
+            .collect()
+    });
+    let Some((w, _)) = sine::refine_frequency(
+        [&detrended[0][..], &detrended[1][..], &detrended[2][..]],
+        omega,
+        dt,
+        k_max,
+    ) else {
+        return excluded(rec, index, reason::BAD_DATA);
+    };
+    let Some(hf) = sine::harmonic_fit_trend(sig, w, dt, k_max) else {
+        return excluded(rec, index, reason::BAD_DATA);
+    };
+    let local = noise::local_noise(sig, &hf, w, dt);
     let p_in = hf.harmonics[0][0];
     let nn = st.len as f64;
     let amp_in = p_in.norm();
@@ -434,6 +557,37 @@ pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> Rec
         noise[o] = var_y.sqrt();
     }
     let harm_in: f64 = hf.harmonics[0][1..].iter().map(|h| h.norm_sqr()).sum();
+    let t0 = rec.t[st.start];
+    let third = |j: usize| {
+        hf.harmonics[j]
+            .get(2)
+            .copied()
+            .unwrap_or(Complex64::new(0.0, 0.0))
+    };
+    let ratio = |j: usize, v: f64| v / hf.noise_var[j].max(1e-300);
+    let components = SteadyComponents {
+        t0,
+        t1: rec.t[st.start + st.len - 1],
+        samples: st.len,
+        omega: w,
+        u1: p_in,
+        y1: [hf.harmonics[1][0], hf.harmonics[2][0]],
+        y3: [third(1), third(2)],
+        trend: [hf.trend[1], hf.trend[2]],
+        residual_var: [hf.noise_var[1], hf.noise_var[2]],
+        input_residual_var: hf.noise_var[0],
+        zero_band_omega: {
+            let (_, zero) = noise::bin_frequencies(st.len, dt, w, k_max);
+            zero.iter().sum::<f64>() / zero.len().max(1) as f64
+        },
+        colour_raw: [
+            (ratio(1, local[1].near_omega), ratio(1, local[1].near_zero)),
+            (ratio(2, local[2].near_omega), ratio(2, local[2].near_zero)),
+        ],
+        colour: [(1.0, 1.0); 2],
+        inv_diag_h1: hf.inv_diag_h1,
+        inv_diag_trend: hf.inv_diag_trend,
+    };
     RecordFit {
         index,
         excited: rec.meta.excited,
@@ -451,21 +605,80 @@ pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> Rec
         steady_start_s,
         periods: st.periods,
         excluded: None,
+        components: Some(components),
     }
 }
 
-/// Analyses every record on `threads` scoped threads, results in record order.
+/// Analyses every record on `threads` scoped threads, results in record order; the noise's
+/// colour is then pooled over the campaign ([`pool_colour`]).
 pub fn analyse_records(
     campaign: &Campaign,
     opts: &IdentifyOptions,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Vec<RecordFit> {
     let done = AtomicUsize::new(0);
-    parallel_map(campaign.records.len(), worker_count(opts), |k| {
+    let mut fits = parallel_map(campaign.records.len(), worker_count(opts), |k| {
         let fit = analyse_record(&campaign.records[k], k, opts);
         progress(done.fetch_add(1, Ordering::Relaxed) + 1);
         fit
-    })
+    });
+    pool_colour(&mut fits, opts.relative_floor);
+    fits
+}
+
+/// Pools the records' colour estimates over the campaign, per output and by frequency (see
+/// `noise`), and updates each record's colour factors and the standard errors of its `g`:
+/// with white noise the factors are about 1 and nothing changes; with coloured noise the
+/// variances follow the noise where each record sees it.
+pub fn pool_colour(records: &mut [RecordFit], relative_floor: f64) {
+    use noise::{pool_ratios, ColourSample};
+    let bins_near = 2 * noise::BINS;
+    for i in 0..2 {
+        let near: Vec<ColourSample> = records
+            .iter()
+            .filter_map(|r| r.components.as_ref())
+            .map(|c| ColourSample {
+                omega: c.omega,
+                ratio: c.colour_raw[i].0,
+                bins: bins_near,
+            })
+            .collect();
+        let zero: Vec<ColourSample> = records
+            .iter()
+            .filter_map(|r| r.components.as_ref())
+            .map(|c| ColourSample {
+                omega: c.zero_band_omega,
+                ratio: c.colour_raw[i].1,
+                bins: noise::BINS,
+            })
+            .collect();
+        let q_near: Vec<f64> = records
+            .iter()
+            .map(|r| r.components.as_ref().map_or(f64::NAN, |c| c.omega))
+            .collect();
+        let q_zero: Vec<f64> = records
+            .iter()
+            .map(|r| {
+                r.components
+                    .as_ref()
+                    .map_or(f64::NAN, |c| c.zero_band_omega)
+            })
+            .collect();
+        let f_near = pool_ratios(&near, &q_near);
+        let f_zero = pool_ratios(&zero, &q_zero);
+        for (k, r) in records.iter_mut().enumerate() {
+            let Some(c) = r.components.as_mut() else {
+                continue;
+            };
+            c.colour[i] = (f_near[k], f_zero[k]);
+            if r.excluded.is_none() || r.excluded.as_deref() == Some(reason::SATURATED) {
+                let amp2 = c.u1.norm_sqr().max(1e-300);
+                let u_var = c.input_residual_var * 0.5 * (c.inv_diag_h1[0] + c.inv_diag_h1[1]);
+                let var = (c.y1_var(i) + r.g[i].norm_sqr() * u_var) / amp2;
+                r.sigma[i] = (var + (relative_floor * r.g[i].norm()).powi(2)).sqrt();
+            }
+        }
+    }
 }
 
 /// Worker threads for `opts`: `opts.threads`, else the available cores.
@@ -620,12 +833,38 @@ pub fn identify_with_progress(
             }
         ));
     }
-    if lm.dof > 0 && lm.chi2 / lm.dof as f64 > 4.0 {
+    let mut delay_alternative = None;
+    if lm.dof > 0 && lm.chi2 / lm.dof as f64 > POOR_FIT {
         warnings.push(format!(
-            "the pendulum model misfits the data: reduced chi-square {:.1}; standard errors are \
-             inflated accordingly and the uncertainty weights carry the misfit",
+            "the pendulum model misfits the data: reduced chi-square {:.1} (about 1 when the \
+             model is right). A physical effect the seed's model lacks is likely acting: `cargo \
+             xtask diagnose CAMPAIGN --model MODEL` names it with evidence, `cargo xtask loop \
+             CAMPAIGN` adds it; until then the standard errors are inflated by the misfit and \
+             the uncertainty weights carry it",
             lm.chi2 / lm.dof as f64
         ));
+        if bw_est {
+            let pts = points(&records, &factors, &saturated);
+            if let Some(alt) = delay_alternative_fit(&pts, (wn0, z0), lm.params[8]) {
+                if alt.reduced_chi2 < 0.5 * lm.chi2 / lm.dof as f64 {
+                    warnings.push(format!(
+                        "the tracking low-pass may be absorbing a delay: alone it fits omega_n = \
+                         {:.2} rad/s, zeta = {:.3} (reduced chi-square {:.1}); with a pure delay of \
+                         {:.1} ms it fits omega_n = {:.2} rad/s, zeta = {:.3} (reduced chi-square \
+                         {:.1}). The model file keeps the seed's structure (low-pass only); the \
+                         diagnosis tests the delay on held-out records",
+                        lm.params[8],
+                        lm.params[9],
+                        lm.chi2 / lm.dof as f64,
+                        alt.delay_s * 1e3,
+                        alt.omega_n,
+                        alt.zeta,
+                        alt.reduced_chi2
+                    ));
+                }
+                delay_alternative = Some(alt);
+            }
+        }
     }
     if !bw_est {
         warnings.push(bw_note.clone());
@@ -681,6 +920,7 @@ pub fn identify_with_progress(
             f64::NAN
         },
         warnings,
+        delay_alternative,
         model: ModelSpec {
             name: None,
             description: None,
@@ -1308,6 +1548,8 @@ pub fn summary_json(ident: &Identification) -> serde_json::Value {
         "saturation": ident.saturation,
         "uncertainty": ident.uncertainty,
         "reduced_chi2": ident.reduced_chi2,
+        "poor_fit": ident.reduced_chi2 > POOR_FIT,
+        "delay_alternative": ident.delay_alternative,
         "excluded": excluded,
         "warnings": ident.warnings,
     })

@@ -5,7 +5,8 @@ use zmp_models::{lookup, Axis, Binding, EffectInstance, ModelSpec};
 use zmp_validation::diagnose::candidates::CATALOGUE;
 use zmp_validation::diagnose::engine::{evaluate, own_parameters, score_candidate, significant};
 use zmp_validation::diagnose::measure::aggregate;
-use zmp_validation::diagnose::observe::{observe, Observation};
+use zmp_validation::diagnose::observe::Observation;
+use zmp_validation::diagnose::run::observe_campaign;
 use zmp_validation::virtual_robot::{logspace, simulate_campaign, ExperimentDesign};
 
 fn paper() -> ModelSpec {
@@ -28,11 +29,9 @@ fn design() -> ExperimentDesign {
 
 fn observations(spec: &ModelSpec) -> Vec<Observation> {
     let camp = simulate_campaign(spec, &design()).unwrap();
-    camp.records
-        .iter()
-        .enumerate()
-        .map(|(k, r)| observe(r, k, 3.0, r.meta.omega).expect("whole periods"))
-        .collect()
+    let (obs, skipped) = observe_campaign(&camp, 2);
+    assert!(skipped.is_empty(), "{skipped:?}");
+    obs
 }
 
 #[test]

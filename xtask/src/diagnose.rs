@@ -286,7 +286,7 @@ pub fn augment_cmd(
 }
 
 /// The versions leading to `model` and the waterfall plot (written).
-fn history_plot(
+pub fn history_plot(
     model: &Path,
     plot: Option<&Path>,
     force: bool,
@@ -415,8 +415,9 @@ pub fn demo_loop(paper: &zmp_models::ModelSpec, dir: &Path, quiet: bool) -> Resu
     let model = dir.join("identified.toml");
     zmp_validation::identify::write_model(&ident, &model, true)?;
     let dopts = options(&camp_dir, &model);
+    let (obs, _) = zmp_validation::diagnose::run::observations_of(&ident.records);
     crate::identify::record_in_ledger(
-        &camp,
+        &obs,
         &ident.model,
         &model,
         None,

@@ -102,7 +102,9 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
         }
     }
     write_model(&ident, &out, force)?;
-    record_in_ledger(&camp, &ident.model, &out, a.model, &change, &dopts, quiet);
+    // The ledger's error reuses the identification's own record analyses.
+    let (obs, _) = zmp_validation::diagnose::run::observations_of(&ident.records);
+    record_in_ledger(&obs, &ident.model, &out, a.model, &change, &dopts, quiet);
     let files = match report {
         Some(dir) => Some(write_report(&ident, dir, force)?),
         None => None,
@@ -152,7 +154,7 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
 /// Records the written model in the ledger beside it, with its error on the campaign (a
 /// failure here is a warning: the model file is written).
 pub fn record_in_ledger(
-    camp: &zmp_validation::campaign::Campaign,
+    obs: &[zmp_validation::diagnose::observe::Observation],
     spec: &zmp_models::ModelSpec,
     out: &Path,
     parent: Option<&Path>,
@@ -160,9 +162,8 @@ pub fn record_in_ledger(
     opts: &zmp_validation::diagnose::DiagnoseOptions,
     quiet: bool,
 ) {
-    use zmp_validation::diagnose::{engine::evaluate, measure::aggregate, run::observe_campaign};
+    use zmp_validation::diagnose::{engine::evaluate, measure::aggregate};
     let run = || -> Result<()> {
-        let (obs, _) = observe_campaign(camp, opts.threads);
         let refs: Vec<_> = obs.iter().collect();
         let (e, f) = aggregate(&evaluate(spec, &refs)?);
         // A starting model in the same folder joins the chain (recorded first if new).

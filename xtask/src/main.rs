@@ -6,6 +6,7 @@ mod diagnose;
 mod env;
 mod fmu;
 mod identify;
+mod loop_cmd;
 mod setup;
 mod simulate;
 
@@ -187,6 +188,29 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// The whole loop in one command: identify the seed's model (with the acceleration limit
+    /// when the data show one), diagnose it, add what the diagnosis finds one effect at a time
+    /// (each version written beside the others and recorded in the ledger), diagnose again,
+    /// until the model explains the data or nothing significant is left; prints the error
+    /// waterfall and writes it (history.svg) with the diagnosis report.
+    Loop {
+        /// Campaign folder (with campaign.toml).
+        campaign: PathBuf,
+        /// A model file whose structure is identified instead of the seed's (its effects are
+        /// refitted).
+        #[arg(long)]
+        model: Option<PathBuf>,
+        /// Output folder for the model versions, reports and waterfall (default:
+        /// <campaign>-loop beside the campaign folder).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Replace the loop's earlier output in that folder.
+        #[arg(long)]
+        force: bool,
+        /// Print a machine-readable summary (versions, errors, effects found, outcome).
+        #[arg(long)]
+        json: bool,
+    },
     /// The versions that led to a model (from the ledger beside it: identify and augment
     /// write it) with their errors, as a table and an error waterfall (SVG).
     History {
@@ -270,6 +294,29 @@ fn run(cli: Cli) -> Result<()> {
             json,
         } => {
             diagnose::augment_cmd(&model, &add, &campaign, out.as_deref(), force, json).map(|_| ())
+        }
+        Cmd::Loop {
+            campaign,
+            model,
+            out,
+            force,
+            json,
+        } => {
+            let out = out.unwrap_or_else(|| {
+                let name = campaign
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_else(|| "campaign".into());
+                campaign.with_file_name(format!("{name}-loop"))
+            });
+            loop_cmd::loop_cmd(&loop_cmd::LoopArgs {
+                campaign: &campaign,
+                model: model.as_deref(),
+                out: &out,
+                force,
+                json,
+            })
+            .map(|_| ())
         }
         Cmd::History { model, plot, json } => {
             diagnose::history_cmd(&model, plot.as_deref(), true, json)

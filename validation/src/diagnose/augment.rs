@@ -1,8 +1,8 @@
 //! Adding a catalogued effect to a model (fitted with the core parameters on every record),
 //! and refitting the structure a model file names.
 
-use super::candidates::{core_frees, model_kind, DataRange, Free, CATALOGUE};
-use super::engine::{evaluate, fit_structure, own_parameters_of, Fitted};
+use super::candidates::{core_frees, DataRange, CATALOGUE};
+use super::engine::{evaluate, fit_structure, own_parameters_of, structure_frees, Fitted};
 use super::measure::aggregate;
 use super::observe::Observation;
 use super::run::{check_inputs, observe_campaign, DiagnoseError, DiagnoseOptions};
@@ -99,7 +99,19 @@ pub fn augment(
     effect: &str,
     opts: &DiagnoseOptions,
 ) -> Result<Augmented, DiagnoseError> {
-    let Some(cand) = CATALOGUE.iter().find(|c| c.effect == effect) else {
+    check_effect(effect, model, opts)?;
+    let obs = prepare(campaign, model, opts)?;
+    let refs: Vec<&Observation> = obs.iter().collect();
+    augment_observations(&refs, model, effect, opts)
+}
+
+/// Whether `effect` is a catalogue name that can be added to `model`.
+fn check_effect(
+    effect: &str,
+    model: &ModelSpec,
+    opts: &DiagnoseOptions,
+) -> Result<(), DiagnoseError> {
+    let Some(_) = CATALOGUE.iter().find(|c| c.effect == effect) else {
         return Err(DiagnoseError::Model {
             model: opts.model_path.clone(),
             message: format!(
@@ -112,7 +124,7 @@ pub fn augment(
             ),
         });
     };
-    if effect != "cross_coupling" && model.has(model_kind(effect)) {
+    if !super::engine::addable(effect, model) {
         return Err(DiagnoseError::Model {
             model: opts.model_path.clone(),
             message: format!(
@@ -122,10 +134,29 @@ pub fn augment(
             ),
         });
     }
-    let obs = prepare(campaign, model, opts)?;
-    let refs: Vec<&Observation> = obs.iter().collect();
+    Ok(())
+}
+
+/// [`augment`] on observations already made (checked against the model by the caller).
+pub fn augment_observations(
+    refs: &[&Observation],
+    model: &ModelSpec,
+    effect: &str,
+    opts: &DiagnoseOptions,
+) -> Result<Augmented, DiagnoseError> {
+    check_effect(effect, model, opts)?;
+    let cand = CATALOGUE
+        .iter()
+        .find(|c| c.effect == effect)
+        .expect("checked");
+    let refs = refs.to_vec();
     let (before, floor) = error_of(model, &refs, opts)?;
-    let starts = (cand.prepare)(model, &DataRange::of(&refs));
+    // The effect is added to the model's own structure refitted first (what the diagnosis
+    // compares it with): a model identified without the effect has absorbed part of it.
+    let base = super::engine::refit_all(model, &refs)
+        .map(|f| f.spec)
+        .unwrap_or_else(|| model.clone());
+    let starts = (cand.prepare)(&base, &DataRange::of(&refs));
     if starts.is_empty() {
         return Err(DiagnoseError::Model {
             model: opts.model_path.clone(),
@@ -137,11 +168,36 @@ pub fn augment(
             model: opts.model_path.clone(),
             message: format!("the fit of {effect} failed"),
         })?;
+    finish(&refs, fitted, effect, before, floor, opts)
+}
+
+/// The model the diagnosis fitted with `effect` added (one step of its path, fitted on every
+/// record) as a written version: fitted further to convergence, with standard errors and
+/// provenance. `model` is the version it is added to (for the error before).
+pub fn augmented_from_diagnosis(
+    refs: &[&Observation],
+    model: &ModelSpec,
+    fitted: &Fitted,
+    effect: &str,
+    opts: &DiagnoseOptions,
+) -> Result<Augmented, DiagnoseError> {
+    let (before, floor) = error_of(model, refs, opts)?;
+    finish(refs, fitted.clone(), effect, before, floor, opts)
+}
+
+fn finish(
+    refs: &[&Observation],
+    fitted: Fitted,
+    effect: &str,
+    before: f64,
+    floor: f64,
+    opts: &DiagnoseOptions,
+) -> Result<Augmented, DiagnoseError> {
     // The model written is fitted to convergence, not to the diagnosis's screening budget.
-    let fitted = fit_structure(&fitted.spec, &fitted.frees, fitted.own, &refs)
+    let fitted = fit_structure(&fitted.spec, &fitted.frees, fitted.own, refs)
         .filter(|f| f.cost <= fitted.cost)
         .unwrap_or(fitted);
-    let (after, _) = error_of(&fitted.spec, &refs, opts)?;
+    let (after, _) = error_of(&fitted.spec, refs, opts)?;
     let mut spec = fitted.spec.clone();
     record_stderr(&mut spec, &fitted);
     let change = format!("+{effect}");
@@ -157,35 +213,6 @@ pub fn augment(
     })
 }
 
-/// The free parameters of every effect the model names beyond the core (pendulum, tracking
-/// low-pass, uncertainty), within their declared ranges.
-pub fn structure_frees(spec: &ModelSpec) -> Vec<Free> {
-    let mut out = Vec::new();
-    for e in &spec.effects {
-        if e.info.core || e.info.kind == "uncertainty" {
-            continue;
-        }
-        for (k, p) in e.info.params.iter().enumerate() {
-            let v = e.values[k];
-            let (min, max) = (p.min, p.max);
-            if !(min.is_finite() && max.is_finite()) || max <= min {
-                continue;
-            }
-            out.push(Free {
-                kind: e.info.kind,
-                bindings: vec![e.binding],
-                param: p.name,
-                bounds: super::lm::Bounded {
-                    value: v.clamp(min, max),
-                    min,
-                    max,
-                },
-            });
-        }
-    }
-    out
-}
-
 /// Refits every parameter of the structure `model` names (its non-core effects and the core)
 /// on `campaign`. Returns `None` in `Augmented::change` terms when the model has no effect
 /// beyond the core.
@@ -194,7 +221,7 @@ pub fn refit_structure(
     model: &ModelSpec,
     opts: &DiagnoseOptions,
 ) -> Result<Option<Augmented>, DiagnoseError> {
-    let own = structure_frees(model);
+    let own = structure_frees(model, None);
     if own.is_empty() {
         return Ok(None);
     }

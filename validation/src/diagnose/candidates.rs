@@ -144,12 +144,14 @@ pub fn core_frees(spec: &ModelSpec, bandwidth: bool) -> Vec<Free> {
         1.0,
         1e3,
     ));
+    // A position servo is at least moderately damped (the seed's is critically damped): a
+    // low-pass below 0.3 would be a structural mode, which the catalogue names separately.
     out.push(Free::new(
         "tracking_lowpass",
         AXES.to_vec(),
         "zeta",
         zeta,
-        0.1,
+        0.3,
         5.0,
     ));
     out
@@ -358,13 +360,16 @@ fn structural_mode(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
                             0.5 * r.omega_min,
                             3.0 * r.omega_max,
                         ),
+                        // A lightly damped mode: at most 0.5, so that it cannot take the
+                        // well-damped servo's place (two second-order low-passes in the
+                        // command path are otherwise interchangeable).
                         Free::new(
                             "structural_mode",
                             bindings.clone(),
                             "zeta",
                             zeta,
                             0.005,
-                            1.0,
+                            0.5,
                         ),
                     ],
                 ));

@@ -1,25 +1,35 @@
-//! Fits every catalogued candidate (with the core parameters), scores it on held-out records
-//! and selects effects forward: the best significant candidate, then the best on top of it.
+//! Fits a model structure to the observations and scores it on held-out records.
 //!
-//! Held-out scoring: two folds by frequency parity (records at the 1st, 3rd, ... distinct
-//! frequencies against the 2nd, 4th, ...): each fold's model predicts the other fold's records.
+//! **Fit.** Every parameter of the model is refitted with a candidate effect: the candidate's
+//! own, the pendulum, the tracking low-pass, the saturation limit and every other effect the
+//! model already has. A model identified without the effect has absorbed part of it into those
+//! (a delay into a slower, more damped low-pass and a lower saturation limit), so the fit also
+//! starts from a low-pass that undoes this (the seed's servo, 30 rad/s and ζ = 1, and a
+//! faster one). The cost is the campaign's chi-square: every record's misfit in units of its
+//! own noise ([`whitened`]), which is the likelihood for Gaussian noise.
+//!
+//! **Held-out scores.** Two folds: at every excitation frequency the records alternate
+//! between the folds (ordered by excited axis, amplitude and operating point, the first fold
+//! alternating with the frequency), so each fold holds every frequency, amplitude and axis
+//! once the campaign has two records per frequency, and an effect that acts on a few records
+//! (saturation on the fastest, largest ones) is fitted on some of them and scored on the
+//! others. Each fold's fit (started from the all-records fit) predicts the other fold.
 
 use super::candidates::{
     apply, core_frees, model_kind, Candidate, DataRange, Free, Start, CATALOGUE,
 };
 use super::lm::{minimise, Bounded};
-use super::measure::{aggregate, predict, residuals, score, RecordScore};
+use super::measure::{aggregate, chi2, predict, score, whitened, RecordScore, COMPONENTS};
 use super::observe::Observation;
 use std::collections::BTreeMap;
-use zmp_models::ModelSpec;
+use zmp_models::{Axis, Binding, ModelSpec};
 
 /// Error above the noise floor, as a multiple of it, below which the model counts as
 /// explaining the data.
 pub const EXPLAINED_RATIO: f64 = 1.5;
-/// Fraction of the excess squared error (above the floor) a candidate must remove to count.
-pub const MIN_EXPLAINED_FRACTION: f64 = 0.5;
 
-/// Iterations: the own parameters from each start, then jointly with the core, then per fold.
+/// Iterations: the own parameters (with the linear core) from each start, then everything
+/// jointly, then per fold.
 const ITERS_OWN: usize = 8;
 const ITERS_JOINT: usize = 20;
 const ITERS_FOLD: usize = 8;
@@ -28,21 +38,27 @@ const ITERS_FOLD: usize = 8;
 #[derive(Debug, Clone)]
 pub struct Fitted {
     pub spec: ModelSpec,
-    /// The candidate's own parameters first, then the core ones.
+    /// The candidate's own parameters first (`own` of them), then every other one fitted.
     pub frees: Vec<Free>,
     pub own: usize,
     pub theta: Vec<f64>,
     pub std_err: Vec<f64>,
+    /// Chi-square on the records fitted.
     pub cost: f64,
 }
 
-/// One candidate's result on held-out records.
+/// A structure's result on held-out records.
 #[derive(Debug, Clone)]
 pub struct Scored {
+    /// The catalogue effect this structure adds (the last one added), or `parameter_refit`.
     pub effect: String,
-    /// Held-out error (RMS over records) and per-record held-out scores (observation order).
+    /// Held-out error (the diagnosis measure, RMS over records).
     pub error: f64,
+    /// Held-out chi-square, summed over records.
+    pub chi2: f64,
+    /// Per record (observation order): held-out score and chi-square.
     pub scores: Vec<RecordScore>,
+    pub chi2s: Vec<f64>,
     /// Fitted on all records.
     pub fitted: Fitted,
 }
@@ -59,9 +75,9 @@ fn fit_from(
     let mut r = |theta: &[f64]| -> Option<Vec<f64>> {
         apply(&mut work, frees, theta);
         let p = predict(&work, obs).ok()?;
-        let mut out = Vec::with_capacity(obs.len() * 6);
+        let mut out = Vec::with_capacity(obs.len() * COMPONENTS);
         for (o, pr) in obs.iter().zip(&p) {
-            residuals(o, pr, &mut out);
+            whitened(o, pr, &mut out);
         }
         out.iter().all(|v| v.is_finite()).then_some(out)
     };
@@ -82,35 +98,89 @@ fn fit_from(
     })
 }
 
-/// Fits a candidate on `obs` from each of its starts, then the best further. The core
-/// parameters are fitted with the candidate's own from every start (the model the diagnosis
-/// starts from may have absorbed the effect into them), except for the costly servo effects,
-/// whose own parameters are fitted first with the core fixed.
+/// The free parameters of every effect `spec` names beyond the core (its declared ranges),
+/// except those of `skip_kind`: what a candidate refits besides its own and the core.
+pub fn structure_frees(spec: &ModelSpec, skip_kind: Option<&str>) -> Vec<Free> {
+    let mut out = Vec::new();
+    for e in &spec.effects {
+        if e.info.core || e.info.kind == "uncertainty" || Some(e.info.kind) == skip_kind {
+            continue;
+        }
+        for (k, p) in e.info.params.iter().enumerate() {
+            let v = e.values[k];
+            let (min, max) = (p.min, p.max);
+            if !(min.is_finite() && max.is_finite()) || max <= min {
+                continue;
+            }
+            out.push(Free {
+                kind: e.info.kind,
+                bindings: vec![e.binding],
+                param: p.name,
+                bounds: Bounded {
+                    value: v.clamp(min, max),
+                    min,
+                    max,
+                },
+            });
+        }
+    }
+    out
+}
+
+/// Everything a structure refits besides a candidate's `own` parameters: the model's other
+/// effects and the core (pendulum terms it has, the tracking low-pass).
+pub fn refit_frees(spec: &ModelSpec, own: &[Free], skip_kind: Option<&str>) -> Vec<Free> {
+    let mut out: Vec<Free> = structure_frees(spec, skip_kind);
+    out.extend(core_frees(spec, true));
+    // A candidate that frees pendulum terms (cross-coupling) owns them.
+    out.retain(|f| {
+        !own.iter()
+            .any(|o| o.kind == f.kind && o.param == f.param && o.bindings == f.bindings)
+    });
+    out
+}
+
+/// Starting variants of a structure's tracking low-pass: as it is, the seed's servo
+/// (30 rad/s, ζ = 1) and a faster, less damped one (an identified model absorbs a delay or a
+/// filter into a slower, more damped low-pass). Variants within 10 % of another are dropped.
+fn bandwidth_variants(spec: &ModelSpec) -> Vec<ModelSpec> {
+    let b = Binding::Axis(Axis::X);
+    let (Some(wn), Some(z)) = (
+        spec.value("tracking_lowpass", b, "omega_n"),
+        spec.value("tracking_lowpass", b, "zeta"),
+    ) else {
+        return vec![spec.clone()];
+    };
+    let mut pts: Vec<(f64, f64)> = vec![(wn, z)];
+    for cand in [(30.0, 1.0), (1.5 * wn, (0.7 * z).max(0.5))] {
+        let near = pts
+            .iter()
+            .any(|p| (p.0 / cand.0 - 1.0).abs() < 0.1 && (p.1 / cand.1 - 1.0).abs() < 0.1);
+        if !near {
+            pts.push(cand);
+        }
+    }
+    pts.into_iter()
+        .map(|(w, zz)| {
+            let mut s = spec.clone();
+            for a in Axis::BOTH {
+                s.set_value("tracking_lowpass", Binding::Axis(a), "omega_n", w);
+                s.set_value("tracking_lowpass", Binding::Axis(a), "zeta", zz);
+            }
+            s
+        })
+        .collect()
+}
+
+/// Fits a candidate on `obs`: from each of its starts (and each low-pass variant) its own
+/// parameters with the pendulum and low-pass (servo candidates: their own alone, their
+/// describing functions are costly), then from the best start every parameter jointly.
 pub fn fit(effect: &str, starts: &[Start], obs: &[&Observation]) -> Option<Fitted> {
     let costly = is_costly(effect);
-    // A model identified without the effect has absorbed part of it into the bandwidth (a
-    // delay or a sensor filter into a slower, more damped low-pass): the cheap candidates also
-    // start from a faster, less damped one, so that the fit does not stay in that valley.
-    let mut all: Vec<Start> = starts.to_vec();
-    let linear_base = starts.first().is_some_and(|(s, _)| {
-        s.effects
-            .iter()
-            .all(|e| e.info.linear || e.info.kind == effect)
-    });
-    if !costly && linear_base {
-        for (s, f) in starts {
-            let mut fast = s.clone();
-            for a in zmp_models::Axis::BOTH {
-                let b = zmp_models::Binding::Axis(a);
-                if let (Some(wn), Some(z)) = (
-                    s.value("tracking_lowpass", b, "omega_n"),
-                    s.value("tracking_lowpass", b, "zeta"),
-                ) {
-                    fast.set_value("tracking_lowpass", b, "omega_n", 1.5 * wn);
-                    fast.set_value("tracking_lowpass", b, "zeta", (0.7 * z).max(0.5));
-                }
-            }
-            all.push((fast, f.clone()));
+    let mut all: Vec<Start> = Vec::new();
+    for (s, f) in starts {
+        for v in bandwidth_variants(s) {
+            all.push((v, f.clone()));
         }
     }
     let best = all
@@ -119,7 +189,10 @@ pub fn fit(effect: &str, starts: &[Start], obs: &[&Observation]) -> Option<Fitte
             let mut frees = f.clone();
             let own = frees.len();
             if !costly {
-                frees.extend(core_frees(s, true));
+                frees.extend(core_frees(s, true).into_iter().filter(|c| {
+                    !f.iter()
+                        .any(|o| o.kind == c.kind && o.param == c.param && o.bindings == c.bindings)
+                }));
             }
             if frees.is_empty() {
                 return None;
@@ -127,11 +200,16 @@ pub fn fit(effect: &str, starts: &[Start], obs: &[&Observation]) -> Option<Fitte
             fit_from(s, &frees, own, obs, ITERS_OWN)
         })
         .min_by(|a, b| a.cost.total_cmp(&b.cost))?;
-    let mut frees = best.frees.clone();
-    if costly {
-        frees.extend(core_frees(&best.spec, true));
-    }
-    fit_from(&best.spec, &frees, best.own, obs, ITERS_JOINT)
+    let own: Vec<Free> = best.frees[..best.own].to_vec();
+    let mut frees = own.clone();
+    frees.extend(refit_frees(
+        &best.spec,
+        &own,
+        Some(model_kind(effect)).filter(|k| *k != "pendulum"),
+    ));
+    fit_from(&best.spec, &frees, own.len(), obs, ITERS_JOINT)
+        .filter(|f| f.cost <= best.cost)
+        .or(Some(best))
 }
 
 /// Candidates whose describing functions come from simulation.
@@ -149,18 +227,31 @@ pub fn fit_structure(
     fit_from(start, frees, own, obs, ITERS_JOINT)
 }
 
-/// The two frequency-parity folds: `fold[k]` is true for records in the second fold.
+/// The two folds: `fold[k]` is true for records in the second one. At each frequency the
+/// records, ordered by excited axis, amplitude and operating point, alternate between the
+/// folds, the first of them alternating with the frequency.
 pub fn folds(obs: &[&Observation]) -> Vec<bool> {
     let omegas = distinct_omegas(obs);
-    obs.iter()
-        .map(|o| {
-            let k = omegas
-                .iter()
-                .position(|w| (w - o.omega).abs() <= 1e-9 * w.abs())
-                .unwrap_or(0);
-            k % 2 == 1
-        })
-        .collect()
+    let mut fold = vec![false; obs.len()];
+    for (q, w) in omegas.iter().enumerate() {
+        let mut at: Vec<usize> = (0..obs.len())
+            .filter(|&k| (obs[k].omega - w).abs() <= 1e-9 * w.abs())
+            .collect();
+        at.sort_by(|&a, &b| {
+            let (x, y) = (obs[a], obs[b]);
+            x.excited
+                .index()
+                .cmp(&y.excited.index())
+                .then(x.nominal_amplitude.total_cmp(&y.nominal_amplitude))
+                .then(x.operating_point[0].total_cmp(&y.operating_point[0]))
+                .then(x.operating_point[1].total_cmp(&y.operating_point[1]))
+                .then(a.cmp(&b))
+        });
+        for (r, &k) in at.iter().enumerate() {
+            fold[k] = (r + q) % 2 == 1;
+        }
+    }
+    fold
 }
 
 /// The distinct excitation frequencies, ascending.
@@ -175,13 +266,12 @@ pub fn distinct_omegas(obs: &[&Observation]) -> Vec<f64> {
 /// free parameters) and predicts the other fold.
 pub fn cross_validate(name: &str, fitted: Fitted, obs: &[&Observation]) -> Scored {
     let fold = folds(obs);
-    let mut scores = vec![
-        RecordScore {
-            error2: f64::NAN,
-            floor2: f64::NAN
-        };
-        obs.len()
-    ];
+    let nan = RecordScore {
+        error2: f64::NAN,
+        floor2: f64::NAN,
+    };
+    let mut scores = vec![nan; obs.len()];
+    let mut chi2s = vec![f64::NAN; obs.len()];
     for side in [false, true] {
         let train: Vec<&Observation> = obs
             .iter()
@@ -196,35 +286,30 @@ pub fn cross_validate(name: &str, fitted: Fitted, obs: &[&Observation]) -> Score
         let refit = if fitted.frees.is_empty() {
             None
         } else {
-            let iters = if is_costly(name) {
-                ITERS_FOLD / 2
-            } else {
-                ITERS_FOLD
-            };
-            fit_from(&fitted.spec, &fitted.frees, fitted.own, &train, iters)
+            fit_from(&fitted.spec, &fitted.frees, fitted.own, &train, ITERS_FOLD)
         };
         let spec = refit.as_ref().map_or(&fitted.spec, |f| &f.spec);
         let test: Vec<&Observation> = test_idx.iter().map(|&k| obs[k]).collect();
         if let Ok(p) = predict(spec, &test) {
             for ((&k, o), pr) in test_idx.iter().zip(&test).zip(&p) {
                 scores[k] = score(o, pr);
+                chi2s[k] = chi2(o, pr);
             }
         }
     }
-    let valid: Vec<RecordScore> = scores
-        .iter()
-        .copied()
-        .filter(|s| s.error2.is_finite())
-        .collect();
-    let error = if valid.len() == scores.len() {
-        aggregate(&valid).0
+    let complete =
+        scores.iter().all(|s| s.error2.is_finite()) && chi2s.iter().all(|c| c.is_finite());
+    let (error, total) = if complete {
+        (aggregate(&scores).0, chi2s.iter().sum())
     } else {
-        f64::INFINITY
+        (f64::INFINITY, f64::INFINITY)
     };
     Scored {
         effect: name.to_string(),
         error,
+        chi2: total,
         scores,
+        chi2s,
         fitted,
     }
 }
@@ -240,8 +325,20 @@ pub fn score_candidate(c: &Candidate, base: &ModelSpec, obs: &[&Observation]) ->
     Some(cross_validate(c.effect, fitted, obs))
 }
 
-/// Candidates of the catalogue not yet in `base` (and not in `exclude`), scored on top of it,
-/// on up to `threads` threads, best first. `done` is called after each candidate.
+/// Whether catalogue effect `effect` can be added to `base` (not there yet; cross-coupling
+/// while the model leaves a coupling term at zero).
+pub fn addable(effect: &str, base: &ModelSpec) -> bool {
+    if effect == "cross_coupling" {
+        return ["a12", "a21", "b12", "b21"]
+            .iter()
+            .any(|p| base.value("pendulum", Binding::Global, p) == Some(0.0));
+    }
+    !base.has(model_kind(effect))
+}
+
+/// Candidates of the catalogue that can be added to `base` (and are not in `exclude`), scored
+/// on top of it, on up to `threads` threads, best (lowest held-out chi-square) first. `done`
+/// is called after each candidate.
 pub fn score_candidates(
     base: &ModelSpec,
     obs: &[&Observation],
@@ -252,7 +349,7 @@ pub fn score_candidates(
     let cands: Vec<&Candidate> = CATALOGUE
         .iter()
         .filter(|c| !exclude.iter().any(|e| e == c.effect))
-        .filter(|c| c.effect == "cross_coupling" || !base.has(model_kind(c.effect)))
+        .filter(|c| addable(c.effect, base))
         .collect();
     // The slow (servo) candidates first so the threads finish together.
     let mut order: Vec<usize> = (0..cands.len()).collect();
@@ -264,15 +361,34 @@ pub fn score_candidates(
         scored
     });
     let mut out: Vec<Scored> = results.into_iter().flatten().collect();
-    out.sort_by(|a, b| a.error.total_cmp(&b.error));
+    out.sort_by(|a, b| a.chi2.total_cmp(&b.chi2));
     out
 }
 
-/// The refit-only control: the model's own structure, core parameters refitted.
+/// The refit-only control: the model's own structure, every parameter refitted (from the
+/// low-pass variants), scored on held-out records.
 pub fn control(base: &ModelSpec, obs: &[&Observation]) -> Option<Scored> {
-    let frees = core_frees(base, true);
-    let fitted = fit_from(base, &frees, 0, obs, ITERS_JOINT)?;
-    Some(cross_validate("parameter_refit", fitted, obs))
+    Some(cross_validate(
+        "parameter_refit",
+        refit_all(base, obs)?,
+        obs,
+    ))
+}
+
+/// Every parameter of `base`'s own structure refitted on `obs`: the core from each low-pass
+/// variant, then everything jointly from the best.
+pub fn refit_all(base: &ModelSpec, obs: &[&Observation]) -> Option<Fitted> {
+    let best = bandwidth_variants(base)
+        .iter()
+        .filter_map(|s| {
+            let frees = core_frees(s, true);
+            fit_from(s, &frees, 0, obs, ITERS_OWN)
+        })
+        .min_by(|a, b| a.cost.total_cmp(&b.cost))?;
+    let frees = refit_frees(&best.spec, &[], None);
+    fit_from(&best.spec, &frees, 0, obs, ITERS_JOINT)
+        .filter(|f| f.cost <= best.cost)
+        .or(Some(best))
 }
 
 /// Scores of `spec` as it is on `obs`.
@@ -311,12 +427,4 @@ pub fn without_effect(s: &Scored) -> ModelSpec {
         spec.remove(model_kind(&s.effect));
     }
     spec
-}
-
-/// Whether `candidate` removes enough of the excess error of `reference` above `floor`.
-pub fn significant(reference: f64, candidate: f64, floor: f64) -> bool {
-    let excess = reference * reference - floor * floor;
-    reference > EXPLAINED_RATIO * floor
-        && excess > 0.0
-        && (reference * reference - candidate * candidate) > MIN_EXPLAINED_FRACTION * excess
 }

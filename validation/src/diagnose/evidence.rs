@@ -21,7 +21,7 @@ fn ratios(obs: &[&Observation], base: &[Prediction]) -> Vec<(usize, Complex64)> 
 }
 
 /// Least-squares slope through the origin of `y` on `x`, and its R².
-fn slope_through_origin(x: &[f64], y: &[f64]) -> (f64, f64) {
+pub fn slope_through_origin(x: &[f64], y: &[f64]) -> (f64, f64) {
     let sxx: f64 = x.iter().map(|v| v * v).sum();
     let sxy: f64 = x.iter().zip(y).map(|(a, b)| a * b).sum();
     let s = if sxx > 0.0 { sxy / sxx } else { 0.0 };
@@ -35,6 +35,40 @@ fn slope_through_origin(x: &[f64], y: &[f64]) -> (f64, f64) {
             0.0
         },
     )
+}
+
+/// The phases ordered by frequency and unwrapped (each within pi of the previous one), with
+/// their frequencies.
+pub fn unwrapped_phase(w: &[f64], ph: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let mut order: Vec<usize> = (0..w.len()).collect();
+    order.sort_by(|&a, &b| w[a].total_cmp(&w[b]));
+    let mut out_w = Vec::with_capacity(w.len());
+    let mut out_p: Vec<f64> = Vec::with_capacity(w.len());
+    for k in order {
+        let mut p = ph[k];
+        if let Some(&prev) = out_p.last() {
+            while p - prev > std::f64::consts::PI {
+                p -= 2.0 * std::f64::consts::PI;
+            }
+            while p - prev < -std::f64::consts::PI {
+                p += 2.0 * std::f64::consts::PI;
+            }
+        }
+        out_w.push(w[k]);
+        out_p.push(p);
+    }
+    (out_w, out_p)
+}
+
+/// How a phase follows frequency, in words decided by the sign of its slope and its R^2.
+pub fn phase_words(slope: f64, r2: f64) -> &'static str {
+    match (slope < 0.0, r2 >= 0.9, r2 >= 0.5) {
+        (true, true, _) => "falls linearly with omega",
+        (true, false, true) => "falls with omega, but not linearly",
+        (true, false, false) => "shows no clear trend with omega",
+        (false, _, true) => "rises with omega (no delay lags like this)",
+        (false, _, false) => "shows no clear trend with omega",
+    }
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -144,16 +178,25 @@ pub fn sentence(
     );
     match effect {
         "time_delay" => {
-            let (slope, r2) = slope_through_origin(&w, &ph);
+            let (wu, phu) = unwrapped_phase(&w, &ph);
+            let (slope, r2) = slope_through_origin(&wu, &phu);
             let dev = median(mag.iter().map(|m| (m - 1.0).abs()).collect());
+            let shape = phase_words(slope, r2);
             let _ = write!(
                 s,
-                "phase of measured/model falls linearly with omega (slope {:.4} s, R^2 {:.3}) \
-                 while the magnitude stays within {:.1} %: a pure delay ({})",
+                "phase of measured/model {shape} (slope {:.4} s, R^2 {:.3}) while the magnitude \
+                 stays within {:.1} %{}",
                 slope,
                 r2,
                 100.0 * dev,
-                axes_of(params)
+                if slope < 0.0 && r2 >= 0.9 && dev < 0.05 {
+                    format!(": a pure delay ({})", axes_of(params))
+                } else {
+                    format!(
+                        "; the fitted delay ({}) explains what the other parameters do not",
+                        axes_of(params)
+                    )
+                }
             );
         }
         "sensor_lowpass" | "structural_mode" => {
@@ -316,4 +359,50 @@ pub fn sentence(
     }
     s.push_str(&fell);
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unwrapping_keeps_a_long_delay_linear() {
+        // 150 ms from 0.5 to 15 rad/s: 2.25 rad of lag, wrapped at +-pi.
+        let w: Vec<f64> = (0..12).map(|k| 0.5 + 1.3 * k as f64).collect();
+        let tau = 0.3;
+        let wrapped: Vec<f64> = w
+            .iter()
+            .map(|w| {
+                let p = -w * tau;
+                (p + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI)
+                    - std::f64::consts::PI
+            })
+            .collect();
+        // Shuffled order: unwrapping sorts by frequency first.
+        let mut idx: Vec<usize> = (0..w.len()).collect();
+        idx.reverse();
+        let ws: Vec<f64> = idx.iter().map(|&k| w[k]).collect();
+        let ps: Vec<f64> = idx.iter().map(|&k| wrapped[k]).collect();
+        let (wu, pu) = unwrapped_phase(&ws, &ps);
+        let (slope, r2) = slope_through_origin(&wu, &pu);
+        assert!((slope + tau).abs() < 1e-9, "{slope}");
+        assert!(r2 > 0.999);
+        assert_eq!(phase_words(slope, r2), "falls linearly with omega");
+        // Without unwrapping the wrapped phase is not a line.
+        let (_, r2w) = slope_through_origin(&ws, &ps);
+        assert!(r2w < 0.9, "{r2w}");
+    }
+
+    #[test]
+    fn the_words_follow_the_data() {
+        assert_eq!(
+            phase_words(0.02, 0.95),
+            "rises with omega (no delay lags like this)"
+        );
+        assert_eq!(
+            phase_words(-0.02, 0.6),
+            "falls with omega, but not linearly"
+        );
+        assert_eq!(phase_words(-0.02, 0.1), "shows no clear trend with omega");
+    }
 }

@@ -173,3 +173,36 @@ pub fn residuals(o: &Observation, p: &Prediction, out: &mut Vec<f64>) {
         out.push((o.slope[i] - p.slope[i]) * k2);
     }
 }
+
+/// Relative accuracy floor of a measured first harmonic, added in quadrature to its noise
+/// (the identification's default `relative_floor`): what white-noise statistics do not
+/// describe (sensor calibration, sampling, the model's own numerics).
+pub const REL_FLOOR: f64 = 3e-4;
+
+/// Residual components of one record per record: the real and imaginary first-harmonic
+/// misfit and the trend misfit of each output.
+pub const COMPONENTS: usize = 6;
+
+/// Noise-weighted residuals of one record: each component of the misfit over its own
+/// standard deviation (first harmonic: the measured phasor's noise, coloured noise included,
+/// with [`REL_FLOOR`]; trend: the fitted trend's). Their sum of squares is the record's
+/// chi-square, about [`COMPONENTS`] for a model that is right.
+pub fn whitened(o: &Observation, p: &Prediction, out: &mut Vec<f64>) {
+    for i in 0..2 {
+        let d = o.y1[i] - p.g[i] * o.u1;
+        let s1 = (o.y1_var[i] + (REL_FLOOR * o.y1[i].norm()).powi(2))
+            .sqrt()
+            .max(1e-300);
+        let s2 = o.slope_var[i].sqrt().max(1e-300);
+        out.push(d.re / s1);
+        out.push(d.im / s1);
+        out.push((o.slope[i] - p.slope[i]) / s2);
+    }
+}
+
+/// The chi-square of one record against a prediction (see [`whitened`]).
+pub fn chi2(o: &Observation, p: &Prediction) -> f64 {
+    let mut r = Vec::with_capacity(COMPONENTS);
+    whitened(o, p, &mut r);
+    r.iter().map(|v| v * v).sum()
+}

@@ -5,14 +5,14 @@
 use super::candidates::{model_kind, CATALOGUE};
 use super::cells::{cells, channel_summary, Cell};
 use super::engine::{
-    control, distinct_omegas, own_parameters, score_candidates, significant, without_effect,
-    Scored, EXPLAINED_RATIO,
+    control, distinct_omegas, own_parameters, without_effect, Scored, EXPLAINED_RATIO,
 };
 use super::evidence::sentence;
 use super::measure::{aggregate, predict, score, Prediction};
 use super::observe::{observe, Observation};
+use super::select::{gain, search};
 use crate::campaign::Campaign;
-use crate::identify::{analyse_records, reason, IdentifyOptions};
+use crate::identify::{analyse_records, reason, IdentifyOptions, RecordFit};
 use serde::Serialize;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
@@ -21,9 +21,7 @@ use zmp_models::{Axis, Binding, Channel, ModelSpec};
 /// Format name of the JSON report.
 pub const DIAGNOSIS_FORMAT: &str = "zmp-diagnosis/1";
 
-/// Effects added at most by forward selection (a third round on top of a nonlinear pair
-/// would simulate describing functions for every candidate).
-pub const MAX_EFFECTS: usize = 2;
+pub use super::select::MAX_EFFECTS;
 
 #[derive(Debug, thiserror::Error)]
 pub enum DiagnoseError {
@@ -81,14 +79,21 @@ pub struct Diagnosis {
     pub skipped: Vec<(usize, String)>,
     pub noise_floor: f64,
     pub baseline_error: f64,
-    /// Held-out error of the model's own structure with its core parameters refitted.
+    /// Held-out error of the model's own structure with every parameter refitted (NaN when
+    /// the model explained the data as it was).
     pub refit_error: f64,
     pub verdict: String,
+    /// Whether the final model explains the data (error within 1.5x the noise floor, no
+    /// failing cell).
+    pub explained: bool,
     pub findings: Vec<Finding>,
     /// Effects selected in order and the held-out error after each.
     pub selected: Vec<(String, f64)>,
     /// The model with the selected effects, fitted on all records.
     pub final_model: ModelSpec,
+    /// The structures the search went through, in order: the effects each step added and the
+    /// model with them fitted on all records (every parameter free).
+    pub path: Vec<(Vec<String>, super::engine::Fitted)>,
     pub final_error: f64,
     /// Cells of the starting model, worst first.
     pub cells: Vec<Cell>,
@@ -101,8 +106,9 @@ pub struct Diagnosis {
     pub tried: Vec<(String, f64)>,
 }
 
-/// Steady-state observations of every usable record (the identification's transient
-/// detection decides where the steady state starts), and the records left out with why.
+/// Steady-state observations of every usable record (the identification's per-record
+/// analysis: steady state, harmonic fit with trend, noise colour), and the records left out
+/// with why.
 pub fn observe_campaign(
     campaign: &Campaign,
     threads: usize,
@@ -111,19 +117,21 @@ pub fn observe_campaign(
         threads: Some(threads),
         ..IdentifyOptions::default()
     };
-    let fits = analyse_records(campaign, &opts, &|_| {});
+    observations_of(&analyse_records(campaign, &opts, &|_| {}))
+}
+
+/// Observations from record analyses already made (identification's), and the records left
+/// out with why. Saturated records are kept: the diagnosis models saturation.
+pub fn observations_of(fits: &[RecordFit]) -> (Vec<Observation>, Vec<(usize, String)>) {
     let mut obs = Vec::new();
     let mut skipped = Vec::new();
     for f in fits {
         match &f.excluded {
             Some(r) if r != reason::SATURATED => skipped.push((f.index, r.clone())),
-            _ => {
-                let rec = &campaign.records[f.index];
-                match observe(rec, f.index, f.steady_start_s, rec.meta.omega) {
-                    Some(o) => obs.push(o),
-                    None => skipped.push((f.index, reason::NO_STEADY.to_string())),
-                }
-            }
+            _ => match observe(f) {
+                Some(o) => obs.push(o),
+                None => skipped.push((f.index, reason::NO_STEADY.to_string())),
+            },
         }
     }
     (obs, skipped)
@@ -260,15 +268,34 @@ fn significant_cells(c: Vec<Cell>) -> Vec<Cell> {
     c.into_iter().filter(|c| c.significant).take(8).collect()
 }
 
-/// Runs the diagnosis. `progress(done, total, what)` reports candidates as they finish.
+/// Whether `preds` explain the observations: error within [`EXPLAINED_RATIO`] of the noise
+/// floor and no cell significantly above its floor.
+pub fn explains(obs: &[&Observation], preds: &[Prediction]) -> bool {
+    let scores: Vec<_> = obs.iter().zip(preds).map(|(o, p)| score(o, p)).collect();
+    let (e, f) = aggregate(&scores);
+    e <= EXPLAINED_RATIO * f && !cells(obs, preds).iter().any(|c| c.significant)
+}
+
+/// Runs the diagnosis. `progress(what)` reports candidates as they finish.
 pub fn diagnose(
     campaign: &Campaign,
     model: &ModelSpec,
     opts: &DiagnoseOptions,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<Diagnosis, DiagnoseError> {
-    zmp_models::effects::servo::clear_describing_function_cache();
     let (observations, skipped) = observe_campaign(campaign, opts.threads);
+    diagnose_observations(observations, skipped, model, opts, progress)
+}
+
+/// [`diagnose`] on observations already made (the identification's record analyses).
+pub fn diagnose_observations(
+    observations: Vec<Observation>,
+    skipped: Vec<(usize, String)>,
+    model: &ModelSpec,
+    opts: &DiagnoseOptions,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<Diagnosis, DiagnoseError> {
+    zmp_models::effects::servo::clear_describing_function_cache();
     let obs: Vec<&Observation> = observations.iter().collect();
     let base_predictions = check_inputs(&obs, model, opts)?;
     let model_err = |e: zmp_models::ModelError| DiagnoseError::Model {
@@ -284,12 +311,7 @@ pub fn diagnose(
     let base_cells = cells(&obs, &base_predictions);
     let channels = channel_summary(&obs, &base_predictions);
     progress("baseline");
-
-    let ctrl = control(model, &obs);
-    progress("parameter_refit");
-    let refit_error = ctrl.as_ref().map_or(f64::INFINITY, |c| c.error);
-    let any_cell = base_cells.iter().any(|c| c.significant);
-    let explained = baseline <= EXPLAINED_RATIO * floor && !any_cell;
+    let explained_as_is = explains(&obs, &base_predictions);
 
     let mut findings = Vec::new();
     let mut selected: Vec<(String, f64)> = Vec::new();
@@ -297,129 +319,150 @@ pub fn diagnose(
     let mut current = model.clone();
     let mut current_preds = base_predictions.clone();
     let mut final_error = baseline;
-    if !explained {
-        // The reference a candidate must beat: the model as it is, or refitted if that is better.
-        let (mut reference, mut ref_spec) = match &ctrl {
-            Some(c) if c.error < baseline => (c.error, c.fitted.spec.clone()),
-            _ => (baseline, model.clone()),
+    let mut refit_error = f64::NAN;
+    let mut verdict = "none".to_string();
+    let mut explained = explained_as_is;
+    let mut path = Vec::new();
+    if !explained_as_is {
+        let root = control(model, &obs);
+        progress("parameter_refit");
+        let Some(root) = root else {
+            return Err(DiagnoseError::Model {
+                model: opts.model_path.clone(),
+                message: "the model's own parameters could not be refitted on this campaign".into(),
+            });
         };
-        let mut exclude: Vec<String> = Vec::new();
-        for round in 0..opts.max_effects {
-            if reference <= EXPLAINED_RATIO * floor {
-                break;
+        refit_error = root.error;
+        let stop = |s: &Scored| -> bool {
+            s.error <= EXPLAINED_RATIO * floor
+                && predict(&s.fitted.spec, &obs).is_ok_and(|p| explains(&obs, &p))
+        };
+        let result = search(&root, &obs, opts.threads, progress, &stop);
+        tried = result
+            .first_round
+            .iter()
+            .map(|s| (s.effect.clone(), s.error))
+            .collect();
+        let mut parent = root.clone();
+        for step in &result.steps {
+            for (k, name) in step.added.iter().enumerate() {
+                // A pair's first effect is scored with its partner (they act together).
+                let mut shown = step.scored.clone();
+                shown.effect = name.clone();
+                let mut f = finding(&obs, &shown, &parent, floor, true);
+                if step.added.len() == 2 {
+                    f.evidence.push_str(&format!(
+                        " (found together with {}: neither alone passes the held-out test)",
+                        step.added[1 - k]
+                    ));
+                }
+                findings.push(f);
+                selected.push((name.clone(), step.scored.error));
             }
-            let scored = score_candidates(&ref_spec, &obs, &exclude, opts.threads, progress);
-            if round == 0 {
-                tried = scored.iter().map(|s| (s.effect.clone(), s.error)).collect();
-            }
-            let Some(best) = prefer_simpler(&scored, floor).cloned() else {
-                break;
+            parent = step.scored.clone();
+            path.push((step.added.clone(), step.scored.fitted.clone()));
+        }
+        let last = result.steps.last().map(|s| &s.scored).unwrap_or(&root);
+        current = last.fitted.spec.clone();
+        current_preds = predict(&current, &obs).map_err(model_err)?;
+        final_error = aggregate(
+            &obs.iter()
+                .zip(&current_preds)
+                .map(|(o, p)| score(o, p))
+                .collect::<Vec<_>>(),
+        )
+        .0;
+        explained = explains(&obs, &current_preds);
+        // The runners-up of the first round, for the record.
+        let first = result.steps.first().map(|s| s.added[0].clone());
+        for s in result
+            .first_round
+            .iter()
+            .filter(|s| Some(&s.effect) != first.as_ref())
+            .take(3)
+        {
+            findings.push(finding(&obs, s, &root, floor, false));
+        }
+        verdict = if let Some((e, _)) = selected.first() {
+            e.clone()
+        } else if stop(&root) {
+            "parameter_refit".to_string()
+        } else {
+            "unexplained".to_string()
+        };
+        if verdict == "parameter_refit" {
+            findings.insert(
+                0,
+                Finding {
+                    effect: "parameter_refit".into(),
+                    channels: channels.iter().map(|c| c.0.clone()).collect(),
+                    parameters: BTreeMap::new(),
+                    std_errors: BTreeMap::new(),
+                    error_before: baseline,
+                    error_after: refit_error,
+                    held_out: true,
+                    significant: true,
+                    evidence: format!(
+                        "the model's own structure with its parameters refitted explains the \
+                         data ({:.1}x -> {:.1}x the noise floor on held-out records): identify \
+                         the campaign again rather than add an effect",
+                        baseline / floor,
+                        refit_error / floor
+                    ),
+                    remaining: Vec::new(),
+                },
+            );
+        }
+        if !explained && verdict != "parameter_refit" {
+            let where_ = significant_cells(cells(&obs, &current_preds));
+            let mut text = if selected.is_empty() {
+                format!(
+                    "an error of {:.1}x the noise floor remains that no catalogued effect \
+                     removes (best: {})",
+                    baseline / floor,
+                    tried.first().map_or("none fitted".to_string(), |t| format!(
+                        "{} at {:.1}x",
+                        t.0,
+                        t.1 / floor
+                    ))
+                )
+            } else {
+                format!(
+                    "with {} added, an error of {:.1}x the noise floor remains that no further \
+                     catalogued effect removes",
+                    selected
+                        .iter()
+                        .map(|s| s.0.as_str())
+                        .collect::<Vec<_>>()
+                        .join(" and "),
+                    final_error / floor
+                )
             };
-            let scored: Vec<Scored> = std::iter::once(best.clone())
-                .chain(scored.into_iter().filter(|s| s.effect != best.effect))
-                .collect();
-            let reference_before = reference;
-            if !significant(reference, best.error, floor) {
-                if round == 0 {
-                    for s in scored.iter().take(4) {
-                        findings.push(finding(&obs, s, reference, floor, false));
-                    }
-                }
-                break;
+            if let Some(c) = where_.first() {
+                text.push_str(&format!("; worst: {} its floor", c.line().trim_end()));
             }
-            let f = finding(&obs, &best, reference, floor, true);
-            findings.push(f);
-            selected.push((best.effect.clone(), best.error));
-            exclude.push(best.effect.clone());
-            reference = best.error;
-            ref_spec = best.fitted.spec.clone();
-            current = best.fitted.spec.clone();
-            current_preds = predict(&current, &obs).map_err(model_err)?;
-            final_error = best.error;
-            if round == 0 {
-                // The runners-up, for the record.
-                for s in scored.iter().skip(1).take(3) {
-                    findings.push(finding(&obs, s, reference_before, floor, false));
-                }
-            }
-        }
-    }
-    let verdict = if explained {
-        "none".to_string()
-    } else if let Some((e, _)) = selected.first() {
-        e.clone()
-    } else if ctrl.as_ref().is_some_and(|c| {
-        significant(baseline, c.error, floor) && c.error <= EXPLAINED_RATIO * floor
-    }) {
-        "parameter_refit".to_string()
-    } else {
-        "unexplained".to_string()
-    };
-    if verdict == "parameter_refit" {
-        if let Some(c) = &ctrl {
-            current = c.fitted.spec.clone();
-            current_preds = predict(&current, &obs).map_err(model_err)?;
-            final_error = c.error;
-        }
-    }
-    // Findings ranked: the selected effects first (in selection order), then the others.
-    findings.sort_by_key(|f| std::cmp::Reverse(f.significant));
-    if verdict == "unexplained" {
-        let where_ = significant_cells(base_cells.clone());
-        let mut text = format!(
-            "an error of {:.1}x the noise floor remains that no catalogued effect removes \
-             (best: {})",
-            baseline / floor,
-            tried.first().map_or("none fitted".to_string(), |t| format!(
-                "{} at {:.1}x",
-                t.0,
-                t.1 / floor
-            ))
-        );
-        if let Some(c) = where_.first() {
-            text.push_str(&format!("; worst: {} its floor", c.line().trim_end()));
-        }
-        let mut chans: Vec<String> = where_.iter().map(|c| c.channel.clone()).collect();
-        chans.sort();
-        chans.dedup();
-        findings.insert(
-            0,
-            Finding {
+            let mut chans: Vec<String> = where_.iter().map(|c| c.channel.clone()).collect();
+            chans.sort();
+            chans.dedup();
+            let f = Finding {
                 effect: "unexplained".into(),
                 channels: chans,
                 parameters: BTreeMap::new(),
                 std_errors: BTreeMap::new(),
-                error_before: baseline,
-                error_after: baseline,
+                error_before: final_error,
+                error_after: final_error,
                 held_out: false,
                 significant: true,
                 evidence: text,
                 remaining: where_,
-            },
-        );
-    }
-    if verdict == "parameter_refit" {
-        findings.insert(
-            0,
-            Finding {
-                effect: "parameter_refit".into(),
-                channels: channels.iter().map(|c| c.0.clone()).collect(),
-                parameters: BTreeMap::new(),
-                std_errors: BTreeMap::new(),
-                error_before: baseline,
-                error_after: refit_error,
-                held_out: true,
-                significant: true,
-                evidence: format!(
-                    "the model's own structure with its pendulum and bandwidth refitted \
-                     explains the data ({:.1}x -> {:.1}x the noise floor on held-out records): \
-                     identify the campaign again rather than add an effect",
-                    baseline / floor,
-                    refit_error / floor
-                ),
-                remaining: Vec::new(),
-            },
-        );
+            };
+            if selected.is_empty() {
+                findings.insert(0, f);
+            } else {
+                let at = selected.len();
+                findings.insert(at, f);
+            }
+        }
     }
     let records = obs.len();
     Ok(Diagnosis {
@@ -431,9 +474,11 @@ pub fn diagnose(
         baseline_error: baseline,
         refit_error,
         verdict,
+        explained,
         findings,
         selected,
         final_model: current,
+        path,
         final_error,
         cells: base_cells,
         channels,
@@ -444,51 +489,39 @@ pub fn diagnose(
     })
 }
 
-/// Physical parameters an effect adds per axis (its complexity for the tie-break).
-pub fn complexity(effect: &str) -> usize {
-    match effect {
-        "structural_mode" => 2,
-        "operating_point_dependence" | "cross_coupling" => 4,
-        _ => 1,
-    }
-}
-
-/// The best candidate, except that a simpler one wins a near tie: its held-out squared error
-/// within a quarter of the noise floor's square (about three standard errors of a campaign's
-/// mean squared error) or a quarter of the best one's excess.
-pub fn prefer_simpler(scored: &[Scored], floor: f64) -> Option<&Scored> {
-    let best = scored.first()?;
-    let e2 = best.error * best.error;
-    let margin = 0.25 * (floor * floor).max(e2 - floor * floor);
-    scored
-        .iter()
-        .filter(|s| complexity(&s.effect) < complexity(&best.effect))
-        .filter(|s| s.error * s.error <= e2 + margin)
-        .min_by(|a, b| {
-            complexity(&a.effect)
-                .cmp(&complexity(&b.effect))
-                .then(a.error.total_cmp(&b.error))
-        })
-        .or(Some(best))
-}
-
 fn finding(
     obs: &[&Observation],
     s: &Scored,
-    reference: f64,
+    parent: &Scored,
     floor: f64,
     selected: bool,
 ) -> Finding {
     let params = own_parameters(s);
     let before = &predict(&without_effect(s), obs).unwrap_or_default();
     let after = predict(&s.fitted.spec, obs).unwrap_or_else(|_| before.to_vec());
-    let evidence = sentence(&s.effect, obs, before, &params, reference, s.error, floor);
+    let g = gain(parent, s);
+    let mut evidence = sentence(
+        &s.effect,
+        obs,
+        before,
+        &params,
+        parent.error,
+        s.error,
+        floor,
+    );
+    evidence.push_str(&format!(
+        " (held-out chi-square {:.0} -> {:.0}, {} of {} records changed beyond their noise)",
+        parent.chi2,
+        s.chi2,
+        g.acting.len(),
+        obs.len()
+    ));
     Finding {
         effect: s.effect.clone(),
         channels: channels_changed(obs, before, &after, &s.effect, &s.fitted.spec),
         parameters: params.iter().map(|(k, v)| (k.clone(), v.0)).collect(),
         std_errors: params.iter().map(|(k, v)| (k.clone(), v.1)).collect(),
-        error_before: reference,
+        error_before: parent.error,
         error_after: s.error,
         held_out: true,
         significant: selected,

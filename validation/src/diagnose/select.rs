@@ -1,0 +1,235 @@
+//! Which effects to add: a search over the catalogue judged on held-out records.
+//!
+//! **The test.** A structure counts as better than its parent when, on records neither was
+//! fitted on, it removes a significant chi-square (the likelihood ratio of the two on held-out
+//! data: at least [`CHI2_MIN`]; overfitting only raises a held-out chi-square, so no penalty
+//! per parameter is needed) **and** a relevant part of what the parent leaves unexplained:
+//! at least [`MIN_TOTAL_FRACTION`] of the parent's excess chi-square over the campaign, or at
+//! least [`MIN_LOCAL_FRACTION`] of it in the records where the two differ beyond their noise
+//! (an effect that acts on a few records, like saturation on the fastest and largest ones, is
+//! judged where it acts).
+//!
+//! **The search.** Forward: every catalogued effect that can be added is fitted on top of the
+//! current structure (refitting everything) and tested against it; the best significant one
+//! is added (a simpler effect wins a near tie), up to [`MAX_EFFECTS`]. When no single effect
+//! passes, the best few are paired (two effects acting together, each of which alone is
+//! masked by the other) and a pair is added when it passes and each of its effects adds
+//! significantly to the other.
+
+use super::engine::{score_candidates, Scored};
+use super::measure::COMPONENTS;
+use super::observe::Observation;
+use zmp_models::ModelSpec;
+
+/// Held-out chi-square a structure must remove to count (a likelihood ratio of e^15 on data
+/// it was not fitted on).
+pub const CHI2_MIN: f64 = 30.0;
+/// Fraction of the parent's excess held-out chi-square, over the campaign, that counts.
+pub const MIN_TOTAL_FRACTION: f64 = 0.1;
+/// Fraction of it in the records where the two structures differ that counts.
+pub const MIN_LOCAL_FRACTION: f64 = 0.5;
+/// Effects added at most.
+pub const MAX_EFFECTS: usize = 4;
+/// Single candidates combined into pairs when none passes alone.
+const PAIR_POOL: usize = 4;
+
+/// What a child structure gains over its parent on held-out records.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Gain {
+    /// Held-out chi-square removed (parent minus child).
+    pub delta_chi2: f64,
+    /// Records where the two differ by more than their noise (a chi-square change beyond
+    /// three standard deviations of a record's chi-square).
+    pub acting: Vec<usize>,
+    /// Fraction of the parent's excess held-out chi-square removed, over the campaign and
+    /// in the acting records.
+    pub total_fraction: f64,
+    pub local_fraction: f64,
+}
+
+impl Gain {
+    pub fn significant(&self) -> bool {
+        self.delta_chi2 >= CHI2_MIN
+            && (self.total_fraction >= MIN_TOTAL_FRACTION
+                || self.local_fraction >= MIN_LOCAL_FRACTION)
+    }
+}
+
+/// The gain of `child` over `parent` (both scored on the same held-out records).
+pub fn gain(parent: &Scored, child: &Scored) -> Gain {
+    let nu = COMPONENTS as f64;
+    let delta_chi2 = parent.chi2 - child.chi2;
+    // A record's chi-square has standard deviation sqrt(2 nu) under noise alone.
+    let noise = 3.0 * (2.0 * nu).sqrt();
+    let acting: Vec<usize> = (0..parent.chi2s.len())
+        .filter(|&k| (parent.chi2s[k] - child.chi2s[k]).abs() > noise)
+        .collect();
+    let excess = |ix: &mut dyn Iterator<Item = usize>| -> f64 {
+        ix.map(|k| (parent.chi2s[k] - nu).max(0.0)).sum()
+    };
+    let total_excess = excess(&mut (0..parent.chi2s.len()));
+    let local_excess = excess(&mut acting.iter().copied());
+    let local_removed: f64 = acting
+        .iter()
+        .map(|&k| parent.chi2s[k] - child.chi2s[k])
+        .sum();
+    Gain {
+        delta_chi2,
+        total_fraction: if total_excess > 0.0 {
+            delta_chi2 / total_excess
+        } else {
+            0.0
+        },
+        local_fraction: if local_excess > 0.0 {
+            local_removed / local_excess
+        } else {
+            0.0
+        },
+        acting,
+    }
+}
+
+/// Physical parameters an effect adds per axis (its complexity for the tie-break).
+pub fn complexity(effect: &str) -> usize {
+    match effect {
+        "structural_mode" => 2,
+        "operating_point_dependence" | "cross_coupling" => 4,
+        _ => 1,
+    }
+}
+
+/// Among children that pass against `parent`, the best (lowest held-out chi-square), except
+/// that a simpler one wins a near tie: its held-out chi-square within [`CHI2_MIN`] of the
+/// best's, or within a twentieth of it when both are far from the noise (then the models'
+/// own imperfections, not the noise, decide such differences).
+pub fn choose<'a>(parent: &Scored, children: &'a [Scored]) -> Option<&'a Scored> {
+    let passing: Vec<&Scored> = children
+        .iter()
+        .filter(|c| gain(parent, c).significant())
+        .collect();
+    let best = *passing.iter().min_by(|a, b| a.chi2.total_cmp(&b.chi2))?;
+    let slack = CHI2_MIN.max(0.05 * best.chi2);
+    passing
+        .iter()
+        .filter(|c| complexity(&c.effect) < complexity(&best.effect) && c.chi2 <= best.chi2 + slack)
+        .min_by(|a, b| {
+            complexity(&a.effect)
+                .cmp(&complexity(&b.effect))
+                .then(a.chi2.total_cmp(&b.chi2))
+        })
+        .copied()
+        .or(Some(best))
+}
+
+/// One step of the search: the structure after it and the effects it added (one, or two for
+/// a pair).
+#[derive(Debug, Clone)]
+pub struct Step {
+    pub added: Vec<String>,
+    pub scored: Scored,
+    pub gain: Gain,
+}
+
+/// The search's result.
+#[derive(Debug, Clone)]
+pub struct Search {
+    /// Steps taken, in order.
+    pub steps: Vec<Step>,
+    /// Every candidate of the first round, scored on top of the root (best first).
+    pub first_round: Vec<Scored>,
+    /// Pairs tried when no single effect passed (effects, held-out chi-square).
+    pub pairs_tried: Vec<(Vec<String>, f64)>,
+}
+
+/// Searches from `root` (the starting structure, refitted and scored) on `obs`. `stop(s)`
+/// says whether structure `s` already explains the data (the search ends there).
+pub fn search(
+    root: &Scored,
+    obs: &[&Observation],
+    threads: usize,
+    progress: &(dyn Fn(&str) + Sync),
+    stop: &dyn Fn(&Scored) -> bool,
+) -> Search {
+    let mut steps: Vec<Step> = Vec::new();
+    let mut first_round = Vec::new();
+    let mut pairs_tried = Vec::new();
+    let mut current = root.clone();
+    let mut added: Vec<String> = Vec::new();
+    while added.len() < MAX_EFFECTS && !stop(&current) {
+        let base: &ModelSpec = &current.fitted.spec;
+        let children = score_candidates(base, obs, &added, threads, progress);
+        if steps.is_empty() {
+            first_round = children.clone();
+        }
+        if let Some(best) = choose(&current, &children) {
+            let g = gain(&current, best);
+            added.push(best.effect.clone());
+            steps.push(Step {
+                added: vec![best.effect.clone()],
+                scored: best.clone(),
+                gain: g,
+            });
+            current = best.clone();
+            continue;
+        }
+        // No single effect passes: two acting together?
+        if added.len() + 2 > MAX_EFFECTS {
+            break;
+        }
+        let pool: Vec<&Scored> = children
+            .iter()
+            .filter(|c| c.chi2 < current.chi2)
+            .take(PAIR_POOL)
+            .collect();
+        let pair_list: Vec<(usize, usize)> = (0..pool.len())
+            .flat_map(|a| (a + 1..pool.len()).map(move |b| (a, b)))
+            .collect();
+        let results = crate::par::parallel_map(pair_list.len(), threads, |k| {
+            let (a, b) = pair_list[k];
+            let (first, second) = (pool[a], pool[b]);
+            let mut ex = added.clone();
+            ex.push(first.effect.clone());
+            let on_top = score_candidates(&first.fitted.spec, obs, &ex, 1, &|_| {});
+            on_top.into_iter().find(|s| s.effect == second.effect)
+        });
+        let mut best_pair: Option<(usize, Scored, Gain)> = None;
+        for (k, r) in results.into_iter().enumerate() {
+            let Some(pair) = r else { continue };
+            let (a, b) = pair_list[k];
+            pairs_tried.push((
+                vec![pool[a].effect.clone(), pool[b].effect.clone()],
+                pair.chi2,
+            ));
+            let g = gain(&current, &pair);
+            // Each effect must add significantly to the other.
+            let each = gain(pool[a], &pair).significant() && gain(pool[b], &pair).significant();
+            if g.significant()
+                && each
+                && best_pair
+                    .as_ref()
+                    .is_none_or(|(_, _, bg)| g.delta_chi2 > bg.delta_chi2)
+            {
+                best_pair = Some((k, pair, g));
+            }
+        }
+        let Some((k, pair, g)) = best_pair else {
+            break;
+        };
+        let (a, b) = pair_list[k];
+        let names = vec![pool[a].effect.clone(), pool[b].effect.clone()];
+        added.extend(names.iter().cloned());
+        let mut scored = pair;
+        scored.effect = names[1].clone();
+        steps.push(Step {
+            added: names,
+            scored: scored.clone(),
+            gain: g,
+        });
+        current = scored;
+    }
+    Search {
+        steps,
+        first_round,
+        pairs_tried,
+    }
+}
