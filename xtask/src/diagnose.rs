@@ -218,15 +218,9 @@ pub fn augmented_path(model: &Path, effect: &str) -> PathBuf {
 }
 
 /// Makes sure the parent model has a ledger entry (measured on `campaign`) before a child
-/// is recorded.
+/// is recorded (checked and written under the ledger's lock).
 fn ensure_root(model: &Path, campaign: &str, error: f64, floor: f64) -> Result<()> {
-    let name = model
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    if !ledger::read(model)?.iter().any(|e| e.model == name) {
-        ledger::append(model, None, "starting model", campaign, error, floor)?;
-    }
+    ledger::append_unless_recorded(model, "starting model", campaign, error, floor)?;
     Ok(())
 }
 
@@ -290,8 +284,16 @@ fn history_plot(
     model: &Path,
     plot: Option<&Path>,
     force: bool,
-) -> Result<(Vec<ledger::Entry>, bool, PathBuf)> {
-    let (chain, edited) = ledger::history(model)?;
+) -> Result<(Vec<ledger::Entry>, bool, PathBuf, Vec<String>)> {
+    let ledger::History {
+        chain,
+        edited,
+        warnings,
+    } = ledger::history(model)?;
+    // Damaged ledger lines are skipped, never fatal; say so on standard error.
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     let plot = plot.map(Path::to_path_buf).unwrap_or_else(|| {
         let stem = model
             .file_stem()
@@ -312,14 +314,15 @@ fn history_plot(
         Some((floor, "noise floor")),
         force,
     )?;
-    Ok((chain, edited, plot))
+    Ok((chain, edited, plot, warnings))
 }
 
 /// `cargo xtask history`.
 pub fn history_cmd(model: &Path, plot: Option<&Path>, force: bool, json: bool) -> Result<()> {
-    let (chain, edited, plot) = history_plot(model, plot, force)?;
+    let (chain, edited, plot, warnings) = history_plot(model, plot, force)?;
     if json {
-        let v = serde_json::json!({"versions": chain, "edited_since": edited, "plot": plot});
+        let v = serde_json::json!({"versions": chain, "edited_since": edited, "plot": plot,
+            "warnings": warnings});
         println!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(());
     }

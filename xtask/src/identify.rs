@@ -168,15 +168,16 @@ pub fn record_in_ledger(
         // A starting model in the same folder joins the chain (recorded first if new).
         let parent = parent.filter(|p| p.parent() == out.parent() && p != &out);
         if let Some(p) = parent {
+            let name = p.file_name().and_then(|n| n.to_str());
             let known = zmp_validation::ledger::read(out)?
+                .entries
                 .iter()
-                .any(|e| Some(e.model.as_str()) == p.file_name().and_then(|n| n.to_str()));
+                .any(|e| Some(e.model.as_str()) == name);
             if !known {
                 let start = crate::simulate::load_model(p)?;
                 let (e0, f0) = aggregate(&evaluate(&start, &refs)?);
-                zmp_validation::ledger::append(
+                zmp_validation::ledger::append_unless_recorded(
                     p,
-                    None,
                     "starting model",
                     &opts.campaign_path,
                     e0,
