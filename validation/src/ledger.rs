@@ -353,7 +353,10 @@ mod tests {
         assert_eq!(h.chain.len(), 1);
         assert_eq!(h.warnings.len(), 1, "{:?}", h.warnings);
         let w = &h.warnings[0];
-        assert!(w.contains("zmp-ledger.jsonl:2") && w.contains("skipped"), "{w}");
+        assert!(
+            w.contains("zmp-ledger.jsonl:2") && w.contains("skipped"),
+            "{w}"
+        );
 
         append(&b, Some(&a), "+time_delay", "camp", 0.05, 0.01).unwrap();
         let h = history(&b).unwrap();
@@ -362,13 +365,21 @@ mod tests {
         let text = std::fs::read_to_string(&ledger).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines.len(), 3, "{text}");
-        assert!(serde_json::from_str::<Entry>(lines[2]).is_ok(), "{}", lines[2]);
+        assert!(
+            serde_json::from_str::<Entry>(lines[2]).is_ok(),
+            "{}",
+            lines[2]
+        );
         // Garbage in the middle (not UTF-8) is skipped too.
         let mut bytes = std::fs::read(&ledger).unwrap();
         bytes.splice(0..0, b"\xff\xfe{\n".iter().copied());
         std::fs::write(&ledger, bytes).unwrap();
         let c = read(&b).unwrap();
         assert_eq!((c.entries.len(), c.warnings.len()), (2, 2), "{c:?}");
-        assert!(c.warnings[0].contains("zmp-ledger.jsonl:1"), "{:?}", c.warnings);
+        assert!(
+            c.warnings[0].contains("zmp-ledger.jsonl:1"),
+            "{:?}",
+            c.warnings
+        );
     }
 }

@@ -68,7 +68,11 @@ fn sixteen_concurrent_writers_lose_no_entry() {
     for k in 0..WRITERS {
         let model = dir.path().join(format!("model{k:02}.toml"));
         let name = format!("model{k:02}.toml");
-        let mine: Vec<_> = contents.entries.iter().filter(|e| e.model == name).collect();
+        let mine: Vec<_> = contents
+            .entries
+            .iter()
+            .filter(|e| e.model == name)
+            .collect();
         assert_eq!(mine.len(), 1 + EXTRA, "{name}");
         assert!(mine.iter().any(|e| e.change == "identified"), "{name}");
         let h = ledger::history(&model).unwrap();

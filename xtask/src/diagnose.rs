@@ -12,7 +12,7 @@ use zmp_validation::diagnose::observe::Observation;
 use zmp_validation::diagnose::report::{write_compare_report, write_diagnosis_report};
 use zmp_validation::diagnose::run::{check_inputs, observe_campaign};
 use zmp_validation::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
-use zmp_validation::io::atomic_write;
+use zmp_validation::io::{atomic_write, check_output_file, claim_dir, REPORT_MARKER};
 use zmp_validation::ledger;
 use zmp_validation::plot::bars_svg;
 
@@ -46,6 +46,7 @@ pub fn compare(
     force: bool,
     json: bool,
 ) -> Result<()> {
+    claim_dir(report, REPORT_MARKER, force, "report")?;
     let spec = load_model(model)?;
     let camp = read(campaign, json)?;
     let opts = options(campaign, model);
@@ -177,6 +178,9 @@ pub fn diagnose_cmd(
     force: bool,
     json: bool,
 ) -> Result<Diagnosis> {
+    if let Some(dir) = report {
+        claim_dir(dir, REPORT_MARKER, force, "report")?;
+    }
     let spec = load_model(model)?;
     let camp = read(campaign, json)?;
     let opts = options(campaign, model);
@@ -233,15 +237,16 @@ pub fn augment_cmd(
     force: bool,
     json: bool,
 ) -> Result<(PathBuf, Augmented)> {
+    let out = out
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| augmented_path(model, effect));
+    check_output_file(&out, force)?;
     let spec = load_model(model)?;
     let camp = read(campaign, json)?;
     let opts = options(campaign, model);
     let pb = progress_bar(1, "fitting", json);
     let a = augment(&camp, &spec, effect, &opts)?;
     pb.finish_and_clear();
-    let out = out
-        .map(Path::to_path_buf)
-        .unwrap_or_else(|| augmented_path(model, effect));
     atomic_write(&out, a.spec.to_toml().as_bytes(), force)?;
     let cname = campaign.display().to_string();
     ensure_root(model, &cname, a.error_before, a.noise_floor)?;
