@@ -713,6 +713,52 @@ mod tests {
         }
     }
 
+    /// `operating_point_dependence` acts in the FMU: its parameters change the outputs, and
+    /// the operating point is the CoM reference at initialisation (as the in-process plant
+    /// with `set_operating_point` at that reference).
+    #[test]
+    fn operating_point_dependence_acts_at_the_initial_reference() {
+        let text = format!("{PAPER}\n[operating_point_dependence]\nda_dx = 2.0\ndb_dy = -3.0\n");
+        let spec = ModelSpec::parse(&text, "op.toml").unwrap();
+        let op = [0.05, 0.03];
+        let run = |da_dx: f64| {
+            let mut s = Slave::from_spec(Kind::Plant, spec.clone()).unwrap();
+            let (x, y) = (vr(&s, "x_cr"), vr(&s, "y_cr"));
+            let p = vr(&s, "operating_point_dependence.da_dx");
+            s.set_real(&[x, y, p], &[op[0], op[1], da_dx]).unwrap();
+            s.initialize().unwrap();
+            let mut zmp = Vec::new();
+            for k in 0..300 {
+                let u = [op[0] + 0.004 * (3e-3 * k as f64).sin(), op[1]];
+                s.set_real(&[x, y], &u).unwrap();
+                s.do_step(k as f64 * 1e-3, 1e-3).unwrap();
+                let mut o = [0.0; 2];
+                s.get_real(&[vr(&s, "zmp_x"), vr(&s, "zmp_y")], &mut o)
+                    .unwrap();
+                zmp.push(o);
+            }
+            zmp
+        };
+        let fmu = run(2.0);
+        let mut plant = Plant::new(&spec, 1e-3).unwrap();
+        plant.set_operating_point(op);
+        plant.reset(op);
+        for (k, got) in fmu.iter().enumerate() {
+            let u = [op[0] + 0.004 * (3e-3 * k as f64).sin(), op[1]];
+            let want = plant.advance(u, 1).zmp;
+            for i in 0..2 {
+                assert!(
+                    (got[i] - want[i]).abs() < 1e-15,
+                    "step {k}: {got:?} vs {want:?}"
+                );
+            }
+        }
+        // The parameter does something: a(op) = a (1 + da_dx x) moves the ZMP by ~10 %.
+        let flat = run(0.0);
+        let moved = (fmu[299][0] - flat[299][0]).abs() / flat[299][0].abs();
+        assert!(moved > 0.05, "da_dx changed zmp_x by only {moved:.2e}");
+    }
+
     /// Plant: a step of n h equals n steps of h with the same held input.
     #[test]
     fn plant_long_step_equals_sub_steps() {
