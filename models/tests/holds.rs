@@ -1,11 +1,14 @@
+// Index loops read as the outputs they compare.
+#![allow(clippy::needless_range_loop)]
+
 //! The plant under the two holds an importer can ask for, against the exact discretisation of
 //! the seed's continuous model:
 //!
 //! - zero-order hold (`Plant::advance`: the input held over the step, as an FMI communication
 //!   step or a digital controller gives it): the outputs at the steps equal the exact
-//!   zero-order-hold discretisation of `G_ZMP,ij(s) = (a_ij - b_ij s^2) wn^2/(s^2 + 2 zeta wn s
-//!   + wn^2)` over the step `H`, computed here from the transfer function written out (one
-//!   state-space of the whole channel, not the plant's servo/pendulum split);
+//!   zero-order-hold discretisation of `G_ZMP,ij(s) = (a_ij - b_ij s^2) wn^2 / (s^2 +
+//!   2 zeta wn s + wn^2)` over the step `H`, computed here from the transfer function written
+//!   out (one state-space of the whole channel, not the plant's servo/pendulum split);
 //! - a whole-step time delay passes a held input through exactly (shifted by its steps).
 
 use zmp_models::lti::{canonical, discretise_foh, Poly, TransferFunction};
