@@ -922,15 +922,34 @@ pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
     order: *const fmi2Integer,
     value: *const fmi2Real,
 ) -> fmi2Status {
-    let _ = (vr, nvr, order, value);
-    // SAFETY: forwarded FMI contract.
-    unsafe {
-        unsupported(
-            c,
-            "fmi2SetRealInputDerivatives",
-            "not supported (canInterpolateInputs = false)",
-        )
-    }
+    let body = |inst: &mut Instance| {
+        const F: &str = "fmi2SetRealInputDerivatives";
+        // SAFETY: forwarded FMI contract on the arrays.
+        let vrs = match unsafe { slice_in(inst, F, vr, nvr) } {
+            Ok(s) => s,
+            Err(st) => return st,
+        };
+        // SAFETY: as above.
+        let orders = match unsafe { slice_in(inst, F, order, nvr) } {
+            Ok(s) => s,
+            Err(st) => return st,
+        };
+        // SAFETY: as above.
+        let vals = match unsafe { slice_in(inst, F, value, nvr) } {
+            Ok(s) => s,
+            Err(st) => return st,
+        };
+        match inst.slave.set_input_derivatives(vrs, orders, vals) {
+            Ok(w) if w.is_empty() => fmi2OK,
+            Ok(w) => {
+                inst.log(fmi2Warning, CAT_WARNING, &format!("{F}: {}", w.join("; ")));
+                fmi2Warning
+            }
+            Err(e) => inst.error(&format!("{F}: {e}")),
+        }
+    };
+    // SAFETY: forwarded FMI contract on `c`.
+    unsafe { with_instance(c, "fmi2SetRealInputDerivatives", SET_STATES, body) }
 }
 
 /// # Safety

@@ -483,10 +483,34 @@ fn invalid_arguments_and_out_of_order_calls_are_rejected() {
             fmi2GetDirectionalDerivative(c, null(), 0, null(), 0, null(), null_mut()),
             "providesDirectionalDerivative",
         );
+        // Input derivatives (the plant interpolates inputs): checked like values.
+        let zmp_x = vr(Kind::Plant, "zmp_x");
         f.rejected(
-            fmi2SetRealInputDerivatives(c, null(), 0, null(), null()),
-            "canInterpolateInputs",
+            fmi2SetRealInputDerivatives(c, [x_cr].as_ptr(), 1, [1].as_ptr(), [f64::NAN].as_ptr()),
+            "not a finite number",
         );
+        f.rejected(
+            fmi2SetRealInputDerivatives(c, [zmp_x].as_ptr(), 1, [1].as_ptr(), [0.1].as_ptr()),
+            "not an input",
+        );
+        f.rejected(
+            fmi2SetRealInputDerivatives(c, [x_cr].as_ptr(), 1, [0].as_ptr(), [0.1].as_ptr()),
+            "orders start at 1",
+        );
+        f.rejected(
+            fmi2SetRealInputDerivatives(c, [x_cr].as_ptr(), 1, null(), [0.1].as_ptr()),
+            "NULL array",
+        );
+        assert_eq!(
+            fmi2SetRealInputDerivatives(c, [x_cr].as_ptr(), 1, [2].as_ptr(), [0.1].as_ptr()),
+            fmi2Warning,
+            "a second derivative is accepted and ignored, with a warning"
+        );
+        assert_eq!(
+            fmi2SetRealInputDerivatives(c, [x_cr].as_ptr(), 1, [1].as_ptr(), [0.0].as_ptr()),
+            fmi2OK
+        );
+        f.clear();
         f.rejected(
             fmi2GetRealOutputDerivatives(c, null(), 0, null(), null_mut()),
             "maxOutputDerivativeOrder",
@@ -618,6 +642,11 @@ fn controller_rejects_inconsistent_limits() {
         );
         assert_eq!(fmi2EnterInitializationMode(c), fmi2OK);
         f.rejected(fmi2ExitInitializationMode(c), "must not exceed theta_max");
+        // The controller samples its inputs: it declares canInterpolateInputs = false.
+        f.rejected(
+            fmi2SetRealInputDerivatives(c, [0].as_ptr(), 1, [1].as_ptr(), [0.1].as_ptr()),
+            "canInterpolateInputs = false",
+        );
         fmi2FreeInstance(c);
     }
 }

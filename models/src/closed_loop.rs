@@ -70,9 +70,10 @@ pub struct StepMetrics {
     pub load_recovery_time: f64,
 }
 
-/// CoM reference that holds the plant's ZMP at `zmp` (solves `a c = zmp`).
+/// CoM reference that holds the plant's ZMP at `zmp` (solves `a c = zmp`, `a` at the plant's
+/// operating point).
 pub fn com_for_zmp(plant: &Plant, zmp: [f64; 2]) -> [f64; 2] {
-    let a = plant.pendulum().a;
+    let a = plant.pendulum_at_operating_point().0;
     let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
     [
         (a[1][1] * zmp[0] - a[0][1] * zmp[1]) / det,

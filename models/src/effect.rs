@@ -183,16 +183,43 @@ pub trait Effect: Send + Sync + fmt::Debug {
     /// Puts the effect at rest for the constant input `u`; returns its output at rest.
     fn reset(&mut self, u: f64) -> f64;
 
-    /// One internal step of a signal effect (Command, Channel, Sensor sites).
+    /// One internal step of a signal effect (Command, Channel, Sensor sites): the input has
+    /// moved linearly from its value at the step's start to `u`; returns the output at the
+    /// step's end.
     #[inline]
     fn step(&mut self, u: f64) -> f64 {
         u
+    }
+
+    /// Signal effects: the input jumps to `u` at the current instant (the effect's state does
+    /// not move); returns the output just after. The default suits effects whose output is a
+    /// function of the input alone.
+    #[inline]
+    fn jump(&mut self, u: f64) -> f64 {
+        u
+    }
+
+    /// One step whose input may jump at its start: `jump` is the input's value just after the
+    /// start (`None`: continuous), `u` its value at the end. Returns the output's value just
+    /// after the start (`None`: continuous) and at the end. An effect that delays its input
+    /// passes a jump on later, at the step where it reaches the output.
+    #[inline]
+    fn step_span(&mut self, jump: Option<f64>, u: f64) -> (Option<f64>, f64) {
+        let j = jump.map(|v| self.jump(v));
+        (j, self.step(u))
     }
 
     /// Servo effects: the acceleration the servo achieves for a demanded one at `velocity`.
     #[inline]
     fn servo_acceleration(&mut self, demand: f64, _velocity: f64) -> f64 {
         demand
+    }
+
+    /// Servo effects: the steepest slope of the acceleration they remove against velocity,
+    /// 1/s (0 for none). The servo's RK4 takes sub-steps short enough for it, so a stiff
+    /// effect is integrated stably at any plant step.
+    fn stiffness(&self) -> f64 {
+        0.0
     }
 
     /// Pendulum modifiers: `(scale of a_ij, scale of b_ij)` at the operating point `[x, y]` m.

@@ -1,4 +1,5 @@
-//! A linear effect given by its transfer function: exact response, first-order-hold step.
+//! A linear effect given by its transfer function: exact response, first-order-hold step
+//! (exact for inputs that ramp between steps and jump at them).
 
 use crate::effect::{Effect, EffectInfo};
 use crate::lti::{DiscreteLti, TransferFunction};
@@ -31,6 +32,10 @@ impl Effect for LtiEffect {
     #[inline]
     fn step(&mut self, u: f64) -> f64 {
         self.sys.step(u)
+    }
+    #[inline]
+    fn jump(&mut self, u: f64) -> f64 {
+        self.sys.jump(u)
     }
     fn transfer_function(&self) -> Option<TransferFunction> {
         Some(self.tf.clone())

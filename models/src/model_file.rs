@@ -244,6 +244,17 @@ impl ModelSpec {
             {
                 return Err(err(file, e.key(), "given twice"));
             }
+            if e.values.len() != e.info.params.len() {
+                return Err(err(
+                    file,
+                    e.key(),
+                    format!(
+                        "{} values for {} parameters",
+                        e.values.len(),
+                        e.info.params.len()
+                    ),
+                ));
+            }
             check_values(e.info, &e.values, file, &e.key())?;
         }
         Ok(())
@@ -285,7 +296,16 @@ impl ModelSpec {
     }
 
     /// Adds (or replaces) an effect instance, keeping canonical order.
-    pub fn insert(&mut self, instance: EffectInstance) {
+    /// Adds `instance` (replacing one of the same kind and place). Its values may leave out
+    /// trailing optional parameters: they take their defaults.
+    pub fn insert(&mut self, mut instance: EffectInstance) {
+        let params = instance.info.params;
+        while instance.values.len() < params.len() {
+            match params[instance.values.len()].default {
+                Some(d) => instance.values.push(d),
+                None => break,
+            }
+        }
         self.effects
             .retain(|e| !(std::ptr::eq(e.info, instance.info) && e.binding == instance.binding));
         self.effects.push(instance);

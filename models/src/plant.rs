@@ -4,7 +4,15 @@
 //! The plant acts on absolute values: at rest, `zmp_i = sum_j a_ij x_cj` (plus sensor offsets);
 //! its small-signal model around any operating point is the seed's `G_ZMP`. One call of
 //! [`Plant::step`] advances one fixed internal step `h`, the inputs moving linearly from the
-//! previous call's values; it never allocates.
+//! previous call's values (first-order hold); [`Plant::step_from`] also lets them jump at the
+//! step's start, and [`Plant::advance`] holds them constant (zero-order hold, what a digital
+//! controller's output or an FMI communication step gives). None of them allocates.
+//!
+//! Exactness: the servo (tracking low-pass) and the pendulum are discretised exactly for any
+//! input that ramps between steps and jumps at them, so the seed's nominal `G_ZMP` is stepped
+//! exactly under both holds. Blocks after the pendulum (uncertainty, sensor filters) see their
+//! input as a ramp between steps, the jump of the pendulum's output included, which is exact to
+//! second order in the step.
 
 use crate::axis::{Axis, Channel};
 use crate::effect::{Binding, BuildContext, Effect, Site};
@@ -51,13 +59,19 @@ pub struct Plant {
     a: [[f64; 2]; 2],
     b: [[f64; 2]; 2],
     last: PlantOutput,
+    /// The CoM reference at the end of the last step.
+    last_ref: [f64; 2],
+    /// Output of each channel chain at the end of the last step.
+    channel_out: [[f64; 2]; 2],
 }
 
-fn run_chain(chain: &mut Chain, mut u: f64) -> f64 {
+/// One step of a chain whose input may jump at the step's start (see [`Effect::step_span`]).
+#[inline]
+fn run_chain(chain: &mut Chain, mut jump: Option<f64>, mut u: f64) -> (Option<f64>, f64) {
     for e in chain.iter_mut() {
-        u = e.step(u);
+        (jump, u) = e.step_span(jump, u);
     }
-    u
+    (jump, u)
 }
 
 fn reset_chain(chain: &mut Chain, mut u: f64) -> f64 {
@@ -113,8 +127,25 @@ impl Plant {
             a: pendulum.a,
             b: pendulum.b,
             last: PlantOutput::default(),
+            last_ref: [0.0; 2],
+            channel_out: [[0.0; 2]; 2],
         };
         for inst in spec.effects.iter().filter(|e| !e.info.core) {
+            if inst.info.kind == "time_delay"
+                && inst.values[0] / h > crate::effects::time_delay::MAX_DELAY_STEPS
+            {
+                return Err(ModelError {
+                    file,
+                    key: format!("{}.delay", inst.key()),
+                    message: format!(
+                        "a delay of {} s at an internal step of {h} s needs {:.3e} stored \
+                         steps; at most {:.0e} (use a longer step)",
+                        inst.values[0],
+                        inst.values[0] / h,
+                        crate::effects::time_delay::MAX_DELAY_STEPS
+                    ),
+                });
+            }
             let servo = match inst.binding {
                 Binding::Axis(a) => Some((lowpass[a.index()].omega_n, lowpass[a.index()].zeta)),
                 _ => None,
@@ -140,6 +171,19 @@ impl Plant {
                         message: "effect bound to a place its site does not have".into(),
                     })
                 }
+            }
+        }
+        for a in Axis::BOTH {
+            let longest = crate::effects::servo::max_step(&plant.servo_limits[a.index()]);
+            if h > longest {
+                return Err(ModelError {
+                    file,
+                    key: format!("coulomb_friction.{}.v_s", a.name()),
+                    message: format!(
+                        "the friction's regularisation (level / v_s) is too stiff for the \
+                         internal step {h} s: at most {longest:.3e} s, or a larger v_s"
+                    ),
+                });
             }
         }
         plant.set_operating_point([0.0, 0.0]);
@@ -180,6 +224,12 @@ impl Plant {
         self.operating_point
     }
 
+    /// The pendulum coefficients `(a, b)` at the operating point (rescaled by the pendulum
+    /// modifiers).
+    pub fn pendulum_at_operating_point(&self) -> ([[f64; 2]; 2], [[f64; 2]; 2]) {
+        (self.a, self.b)
+    }
+
     /// Puts the whole plant at rest for the constant CoM reference `com_ref`.
     pub fn reset(&mut self, com_ref: [f64; 2]) -> PlantOutput {
         let mut com = [0.0; 2];
@@ -195,10 +245,13 @@ impl Plant {
         for i in 0..2 {
             let mut z = 0.0;
             for j in 0..2 {
-                z += reset_chain(&mut self.channel[i][j], self.a[i][j] * com[j]);
+                self.channel_out[i][j] =
+                    reset_chain(&mut self.channel[i][j], self.a[i][j] * com[j]);
+                z += self.channel_out[i][j];
             }
             zmp[i] = reset_chain(&mut self.sensor[i], z);
         }
+        self.last_ref = com_ref;
         self.last = PlantOutput {
             zmp,
             com,
@@ -207,26 +260,47 @@ impl Plant {
         self.last
     }
 
-    /// Advances one internal step; `com_ref` has moved linearly from the previous value.
+    /// Advances one internal step; `com_ref` has moved linearly from the previous value
+    /// (first-order hold).
     #[inline]
     pub fn step(&mut self, com_ref: [f64; 2]) -> PlantOutput {
+        self.step_from(self.last_ref, com_ref)
+    }
+
+    /// Advances one internal step with the CoM reference moving linearly from `start` (its
+    /// value just after the step's beginning: a jump where it differs from the previous step's
+    /// end) to `end`. `step_from(u, u)` holds `u` over the step (zero-order hold).
+    #[inline]
+    pub fn step_from(&mut self, start: [f64; 2], end: [f64; 2]) -> PlantOutput {
         let mut com = [0.0; 2];
         let mut acc = [0.0; 2];
+        // Pendulum output of an input axis just after a jump of its servo's acceleration.
+        let mut acc_start = [None; 2];
         for j in 0..2 {
-            let r = run_chain(&mut self.command[j], com_ref[j]);
-            let s = self.servo[j].step(r, &mut self.servo_limits[j]);
+            let jump = (start[j] != self.last_ref[j]).then_some(start[j]);
+            let (jump, r) = run_chain(&mut self.command[j], jump, end[j]);
+            let (a0, s) = self.servo[j].step_span(jump, r, &mut self.servo_limits[j]);
+            acc_start[j] = a0;
             com[j] = s.position;
             acc[j] = s.acceleration;
         }
+        let com_start = self.last.com;
         let mut zmp = [0.0; 2];
         for i in 0..2 {
-            let mut z = 0.0;
+            let (mut z, mut z_start, mut jumped) = (0.0, 0.0, false);
             for j in 0..2 {
                 let p = self.a[i][j] * com[j] - self.b[i][j] * acc[j];
-                z += run_chain(&mut self.channel[i][j], p);
+                let p_start =
+                    acc_start[j].map(|a0| self.a[i][j] * com_start[j] - self.b[i][j] * a0);
+                let (c_start, c) = run_chain(&mut self.channel[i][j], p_start, p);
+                jumped |= c_start.is_some();
+                z_start += c_start.unwrap_or(self.channel_out[i][j]);
+                self.channel_out[i][j] = c;
+                z += c;
             }
-            zmp[i] = run_chain(&mut self.sensor[i], z);
+            zmp[i] = run_chain(&mut self.sensor[i], jumped.then_some(z_start), z).1;
         }
+        self.last_ref = end;
         self.last = PlantOutput {
             zmp,
             com,
@@ -235,12 +309,18 @@ impl Plant {
         self.last
     }
 
-    /// Advances `n` internal steps with the reference held at `com_ref` after the first.
+    /// Advances `n` internal steps with the reference held at `com_ref` from the start
+    /// (zero-order hold: a jump to `com_ref` now, constant after).
     pub fn advance(&mut self, com_ref: [f64; 2], n: usize) -> PlantOutput {
         for _ in 0..n {
-            self.step(com_ref);
+            self.step_from(com_ref, com_ref);
         }
         self.last
+    }
+
+    /// The CoM reference at the end of the last step (or of the reset), m.
+    pub fn last_reference(&self) -> [f64; 2] {
+        self.last_ref
     }
 
     pub fn last_output(&self) -> PlantOutput {

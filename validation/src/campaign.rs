@@ -12,7 +12,7 @@ mod write;
 pub use data::{parse_record, REQUIRED_COLUMNS, STEP_TOLERANCE};
 pub use error::{CampaignError, Part};
 pub use manifest::parse_manifest;
-pub use write::write_campaign;
+pub use write::{check_destination, write_campaign};
 
 use std::path::{Path, PathBuf};
 use zmp_models::Axis;

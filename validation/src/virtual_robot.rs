@@ -110,53 +110,179 @@ impl ExperimentDesign {
         out
     }
 
-    /// Checks the design makes sense; the message names the field.
+    /// Reads a design file's text (TOML); every error names `file` and the field.
+    pub fn from_toml(text: &str, file: &str) -> Result<ExperimentDesign, String> {
+        let d: ExperimentDesign = toml::from_str(text).map_err(|e| {
+            // The parser's message names the key (or quotes its line) and where it is.
+            format!("{file}: {}", e.to_string().trim_end())
+        })?;
+        d.check().map_err(|e| format!("{file}: {e}"))?;
+        Ok(d)
+    }
+
+    /// Rows of a record at `omega`: transient plus whole steady periods, sampled.
+    fn rows_at(&self, omega: f64) -> f64 {
+        let period = 2.0 * std::f64::consts::PI / omega;
+        let steady = (self.periods as f64 * period).max(self.min_steady_s);
+        let steady = (steady / period).ceil() * period;
+        ((self.transient_s + steady) * self.sample_rate_hz).round() + 1.0
+    }
+
+    /// Checks the design makes sense: every number finite and in its range, every list
+    /// non-empty and bounded, and the campaign no larger than [`MAX_RECORD_ROWS`] rows per
+    /// record, [`MAX_CAMPAIGN_ROWS`] in all and [`MAX_INTERNAL_STEPS`] plant steps. The message
+    /// starts with the field.
     pub fn check(&self) -> Result<(), String> {
-        let positive = |name: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
+        let range = |name: &str, v: f64, lo: f64, hi: f64, lo_open: bool| {
+            let above = if lo_open { v > lo } else { v >= lo };
+            if v.is_finite() && above && v <= hi {
                 Ok(())
             } else {
-                Err(format!("{name} must be a positive number, got {v}"))
+                let open = if lo_open { "(" } else { "[" };
+                Err(format!(
+                    "{name} = {v}: must be a finite number in {open}{lo}, {hi}]"
+                ))
             }
         };
-        positive("sample_rate_hz", self.sample_rate_hz)?;
-        positive("internal_step", self.internal_step)?;
-        if self.transient_s < 0.0 || self.min_steady_s < 0.0 {
-            return Err("transient_s and min_steady_s must be >= 0".into());
-        }
-        if self.zmp_noise_std < 0.0 || self.quantisation < 0.0 {
-            return Err("zmp_noise_std and quantisation must be >= 0".into());
-        }
-        for (name, v) in [("amplitudes", &self.amplitudes), ("omegas", &self.omegas)] {
-            if v.is_empty() {
-                return Err(format!("{name} is empty"));
+        let list = |name: &str, n: usize| {
+            if n == 0 {
+                Err(format!("{name} is empty"))
+            } else if n > MAX_LIST {
+                Err(format!("{name} has {n} entries; at most {MAX_LIST}"))
+            } else {
+                Ok(())
             }
-            for x in v {
-                positive(name, *x)?;
+        };
+        if self.name.len() > 1000 {
+            return Err(format!(
+                "name is {} bytes long; at most 1000",
+                self.name.len()
+            ));
+        }
+        range(
+            "sample_rate_hz",
+            self.sample_rate_hz,
+            0.0,
+            MAX_SAMPLE_RATE_HZ,
+            true,
+        )?;
+        range("internal_step", self.internal_step, 0.0, 0.1, true)?;
+        range("transient_s", self.transient_s, 0.0, MAX_DURATION_S, false)?;
+        range(
+            "min_steady_s",
+            self.min_steady_s,
+            0.0,
+            MAX_DURATION_S,
+            false,
+        )?;
+        range("zmp_noise_std", self.zmp_noise_std, 0.0, 1.0, false)?;
+        range("quantisation", self.quantisation, 0.0, 1.0, false)?;
+        if self.periods == 0 || self.periods > MAX_PERIODS {
+            return Err(format!(
+                "periods = {}: must be a whole number from 1 to {MAX_PERIODS}",
+                self.periods
+            ));
+        }
+        list("operating_points", self.operating_points.len())?;
+        for (k, op) in self.operating_points.iter().enumerate() {
+            for (axis, v) in ["x", "y"].iter().zip(op) {
+                if !(v.is_finite() && v.abs() <= 10.0) {
+                    return Err(format!(
+                        "operating_points[{k}].{axis} = {v}: must be a finite number in \
+                         [-10, 10] m"
+                    ));
+                }
             }
         }
-        if self.operating_points.is_empty() || self.excited.is_empty() {
-            return Err("operating_points and excited must not be empty".into());
+        list("amplitudes", self.amplitudes.len())?;
+        for (k, a) in self.amplitudes.iter().enumerate() {
+            range(&format!("amplitudes[{k}]"), *a, 0.0, 1.0, true)?;
+        }
+        list("omegas", self.omegas.len())?;
+        let nyquist = std::f64::consts::PI * self.sample_rate_hz;
+        for (k, w) in self.omegas.iter().enumerate() {
+            range(&format!("omegas[{k}]"), *w, 0.0, nyquist, true).map_err(|_| {
+                format!(
+                    "omegas[{k}] = {w}: must be a positive number below the Nyquist frequency \
+                     {nyquist} rad/s"
+                )
+            })?;
+            if *w >= nyquist {
+                return Err(format!(
+                    "omegas[{k}] = {w} rad/s is at or above the Nyquist frequency {nyquist} rad/s"
+                ));
+            }
+        }
+        list("excited", self.excited.len())?;
+        if self.excited.len() > 2 || (self.excited.len() == 2 && self.excited[0] == self.excited[1])
+        {
+            return Err("excited must name each of \"x\", \"y\" at most once".into());
         }
         let dt = 1.0 / self.sample_rate_hz;
-        if (dt / self.internal_step - (dt / self.internal_step).round()).abs() > 1e-9 {
+        let ratio = dt / self.internal_step;
+        if (ratio - ratio.round()).abs() > 1e-9 * ratio.max(1.0) || ratio.round() < 1.0 {
             return Err(format!(
-                "the sample period {dt} s must be a whole number of internal steps ({} s)",
+                "sample_rate_hz: the sample period {dt} s must be a whole number of internal \
+                 steps (internal_step = {} s)",
                 self.internal_step
             ));
         }
-        let nyquist = std::f64::consts::PI * self.sample_rate_hz;
-        if let Some(w) = self.omegas.iter().find(|&&w| w >= nyquist) {
+        // Sizes: a record's rows, the campaign's rows and the plant steps, before anything is
+        // allocated.
+        let per_set =
+            (self.operating_points.len() * self.amplitudes.len() * self.excited.len()) as f64;
+        let records = per_set * self.omegas.len() as f64;
+        if records > MAX_RECORDS as f64 {
             return Err(format!(
-                "omega {w} rad/s is above the Nyquist frequency {nyquist} rad/s"
+                "operating_points, amplitudes, excited, omegas: {records} records; at most \
+                 {MAX_RECORDS}"
             ));
         }
-        if self.periods == 0 {
-            return Err("periods must be at least 1".into());
+        let mut total_rows = 0.0;
+        for (k, w) in self.omegas.iter().enumerate() {
+            let rows = self.rows_at(*w);
+            if rows > MAX_RECORD_ROWS as f64 {
+                return Err(format!(
+                    "transient_s, min_steady_s, periods: a record at omegas[{k}] = {w} rad/s \
+                     would have {rows:.3e} rows; at most {MAX_RECORD_ROWS:.0e}"
+                ));
+            }
+            total_rows += rows * per_set;
+        }
+        if total_rows > MAX_CAMPAIGN_ROWS as f64 {
+            return Err(format!(
+                "operating_points, amplitudes, excited, omegas: the campaign would have \
+                 {total_rows:.3e} rows; at most {MAX_CAMPAIGN_ROWS:.0e}"
+            ));
+        }
+        let steps = total_rows * ratio.round();
+        if steps > MAX_INTERNAL_STEPS as f64 {
+            return Err(format!(
+                "internal_step = {} s: the campaign would take {steps:.3e} plant steps; at most \
+                 {MAX_INTERNAL_STEPS:.0e}",
+                self.internal_step
+            ));
         }
         Ok(())
     }
 }
+
+/// Longest list in a design (operating points, amplitudes, frequencies).
+pub const MAX_LIST: usize = 1000;
+/// Highest sample rate, Hz.
+pub const MAX_SAMPLE_RATE_HZ: f64 = 1e6;
+/// Longest transient or steady-state length, s.
+pub const MAX_DURATION_S: f64 = 1e5;
+/// Most steady-state periods.
+pub const MAX_PERIODS: u32 = 1_000_000;
+/// Most records in one campaign.
+pub const MAX_RECORDS: usize = 100_000;
+/// Most rows in one record.
+pub const MAX_RECORD_ROWS: usize = 10_000_000;
+/// Most rows in one campaign (about 2 GB in memory).
+pub const MAX_CAMPAIGN_ROWS: usize = 50_000_000;
+/// Most internal plant steps in one campaign.
+pub const MAX_INTERNAL_STEPS: u64 = 10_000_000_000;
 
 /// Rounds to the sensor resolution `q`, keeping decimal-friendly values (k / (1/q)).
 fn quantise(v: f64, q: f64) -> f64 {

@@ -8,6 +8,7 @@ use zmp_models::closed_loop::{run, StepExperiment, StepMetrics};
 use zmp_models::controller::{CascadeController, CascadeParams};
 use zmp_models::effects::uncertainty::weight;
 use zmp_models::{Binding, Channel, Complex64, ModelSpec, Plant};
+use zmp_validation::io::atomic_write;
 use zmp_validation::plot::{
     bode_svg, time_svg, Band, BodePanel, BodeSeries, Style, TimePanel, TimeSeries, PALETTE,
 };
@@ -48,29 +49,57 @@ impl From<StepMetrics> for Metrics {
     }
 }
 
-/// Prepares the demo's output folder: created if missing, replaced if it holds an earlier
-/// demo's output, refused otherwise (it may be the user's).
-fn prepare_out(out: &Path, force: bool) -> Result<()> {
+/// Why the demo may not write into `out`, if it may not: a folder that is neither missing,
+/// empty, nor an earlier demo output (it holds the marker file) may be the user's, and is
+/// refused whatever `--force` says.
+fn refusal(out: &Path) -> Result<Option<String>> {
+    let m = match std::fs::symlink_metadata(out) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(e).with_context(|| format!("inspecting {}", out.display())),
+        Ok(m) => m,
+    };
+    if m.file_type().is_symlink() {
+        return Ok(Some(format!(
+            "{} is a symbolic link; pass its target as --out if it is a demo output folder",
+            out.display()
+        )));
+    }
+    if !m.is_dir() {
+        return Ok(Some(format!(
+            "{} exists and is not a folder",
+            out.display()
+        )));
+    }
+    let ours = out.join(MARKER).is_file();
+    let empty = out
+        .read_dir()
+        .with_context(|| format!("reading {}", out.display()))?
+        .next()
+        .is_none();
+    Ok((!(ours || empty)).then(|| {
+        format!(
+            "{} exists and is not a demo output folder (it has no {MARKER} marker); the demo \
+             replaces only its own earlier output, even with --force: choose another --out",
+            out.display()
+        )
+    }))
+}
+
+/// Prepares the demo's output folder: created if missing, replaced if it is empty or holds an
+/// earlier demo's output, refused otherwise (see [`refusal`]).
+pub fn prepare_out(out: &Path) -> Result<()> {
+    if let Some(why) = refusal(out)? {
+        bail!(why);
+    }
     if out.exists() {
-        let ours = out.join(MARKER).exists();
-        let empty = out
-            .read_dir()
-            .map(|mut d| d.next().is_none())
-            .unwrap_or(false);
-        if !(ours || empty || force) {
-            bail!(
-                "{} exists and is not a demo output folder; pass --force to replace it",
-                out.display()
-            );
-        }
         std::fs::remove_dir_all(out).with_context(|| format!("removing {}", out.display()))?;
     }
-    std::fs::create_dir_all(out)?;
-    std::fs::write(
-        out.join(MARKER),
-        "written by cargo xtask demo; replaced on the next run\n",
-    )?;
-    Ok(())
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    atomic_write(
+        &out.join(MARKER),
+        b"written by cargo xtask demo; replaced on the next run\n",
+        true,
+    )
 }
 
 pub fn bode_panels(spec: &ModelSpec, title_prefix: &str) -> Result<Vec<BodePanel>> {
@@ -159,9 +188,15 @@ pub fn closed_loop_plot(spec: &ModelSpec, path: &Path) -> Result<StepMetrics> {
     Ok(tr.metrics(0, &exp))
 }
 
-pub fn demo(out: &Path, force: bool, json: bool) -> Result<()> {
+/// `force` is accepted for scripts: an earlier demo output is always replaced, and no flag
+/// replaces anything else.
+pub fn demo(out: &Path, _force: bool, json: bool) -> Result<()> {
+    // A refused folder is refused before the minute of setup.
+    if let Some(why) = refusal(out)? {
+        bail!(why);
+    }
     crate::setup::setup(true)?;
-    prepare_out(out, force)?;
+    prepare_out(out)?;
     let root = crate::env::repo_root();
     let model_path = root.join("models/params/silo2-paper.toml");
     let spec = load_model(&model_path)?;
@@ -235,4 +270,42 @@ pub fn demo(out: &Path, force: bool, json: bool) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&s)?);
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `demo --out DIR --force` on a folder without the marker: refused, folder intact; an
+    /// earlier demo output (marker) is replaced.
+    #[test]
+    fn only_demo_output_is_replaced() {
+        let d = tempfile::tempdir().unwrap();
+        let users = d.path().join("results");
+        std::fs::create_dir(&users).unwrap();
+        std::fs::write(users.join("data.csv"), "1,2,3\n").unwrap();
+        for force in [false, true] {
+            let e = demo(&users, force, true).unwrap_err();
+            assert!(
+                e.to_string().contains("not a demo output folder"),
+                "force {force}: {e}"
+            );
+        }
+        assert_eq!(
+            std::fs::read_to_string(users.join("data.csv")).unwrap(),
+            "1,2,3\n"
+        );
+        assert_eq!(std::fs::read_dir(&users).unwrap().count(), 1);
+
+        let earlier = d.path().join("demo");
+        prepare_out(&earlier).unwrap();
+        std::fs::write(earlier.join("old.svg"), "<svg/>").unwrap();
+        prepare_out(&earlier).unwrap();
+        assert!(earlier.join(MARKER).is_file());
+        assert!(!earlier.join("old.svg").exists(), "earlier output replaced");
+        let file = d.path().join("file");
+        std::fs::write(&file, "x").unwrap();
+        assert!(prepare_out(&file).is_err());
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), "x");
+    }
 }

@@ -12,7 +12,7 @@ use zmp_validation::diagnose::observe::Observation;
 use zmp_validation::diagnose::report::{write_compare_report, write_diagnosis_report};
 use zmp_validation::diagnose::run::{check_inputs, observe_campaign};
 use zmp_validation::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
-use zmp_validation::io::atomic_write;
+use zmp_validation::io::{atomic_write, check_output_file, claim_dir, REPORT_MARKER};
 use zmp_validation::ledger;
 use zmp_validation::plot::bars_svg;
 
@@ -46,6 +46,7 @@ pub fn compare(
     force: bool,
     json: bool,
 ) -> Result<()> {
+    claim_dir(report, REPORT_MARKER, force, "report")?;
     let spec = load_model(model)?;
     let camp = read(campaign, json)?;
     let opts = options(campaign, model);
@@ -177,6 +178,9 @@ pub fn diagnose_cmd(
     force: bool,
     json: bool,
 ) -> Result<Diagnosis> {
+    if let Some(dir) = report {
+        claim_dir(dir, REPORT_MARKER, force, "report")?;
+    }
     let spec = load_model(model)?;
     let camp = read(campaign, json)?;
     let opts = options(campaign, model);
@@ -218,15 +222,9 @@ pub fn augmented_path(model: &Path, effect: &str) -> PathBuf {
 }
 
 /// Makes sure the parent model has a ledger entry (measured on `campaign`) before a child
-/// is recorded.
+/// is recorded (checked and written under the ledger's lock).
 fn ensure_root(model: &Path, campaign: &str, error: f64, floor: f64) -> Result<()> {
-    let name = model
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    if !ledger::read(model)?.iter().any(|e| e.model == name) {
-        ledger::append(model, None, "starting model", campaign, error, floor)?;
-    }
+    ledger::append_unless_recorded(model, "starting model", campaign, error, floor)?;
     Ok(())
 }
 
@@ -239,15 +237,16 @@ pub fn augment_cmd(
     force: bool,
     json: bool,
 ) -> Result<(PathBuf, Augmented)> {
+    let out = out
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| augmented_path(model, effect));
+    check_output_file(&out, force)?;
     let spec = load_model(model)?;
     let camp = read(campaign, json)?;
     let opts = options(campaign, model);
     let pb = progress_bar(1, "fitting", json);
     let a = augment(&camp, &spec, effect, &opts)?;
     pb.finish_and_clear();
-    let out = out
-        .map(Path::to_path_buf)
-        .unwrap_or_else(|| augmented_path(model, effect));
     atomic_write(&out, a.spec.to_toml().as_bytes(), force)?;
     let cname = campaign.display().to_string();
     ensure_root(model, &cname, a.error_before, a.noise_floor)?;
@@ -290,8 +289,16 @@ pub fn history_plot(
     model: &Path,
     plot: Option<&Path>,
     force: bool,
-) -> Result<(Vec<ledger::Entry>, bool, PathBuf)> {
-    let (chain, edited) = ledger::history(model)?;
+) -> Result<(Vec<ledger::Entry>, bool, PathBuf, Vec<String>)> {
+    let ledger::History {
+        chain,
+        edited,
+        warnings,
+    } = ledger::history(model)?;
+    // Damaged ledger lines are skipped, never fatal; say so on standard error.
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     let plot = plot.map(Path::to_path_buf).unwrap_or_else(|| {
         let stem = model
             .file_stem()
@@ -312,14 +319,15 @@ pub fn history_plot(
         Some((floor, "noise floor")),
         force,
     )?;
-    Ok((chain, edited, plot))
+    Ok((chain, edited, plot, warnings))
 }
 
 /// `cargo xtask history`.
 pub fn history_cmd(model: &Path, plot: Option<&Path>, force: bool, json: bool) -> Result<()> {
-    let (chain, edited, plot) = history_plot(model, plot, force)?;
+    let (chain, edited, plot, warnings) = history_plot(model, plot, force)?;
     if json {
-        let v = serde_json::json!({"versions": chain, "edited_since": edited, "plot": plot});
+        let v = serde_json::json!({"versions": chain, "edited_since": edited, "plot": plot,
+            "warnings": warnings});
         println!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(());
     }

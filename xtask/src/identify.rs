@@ -9,6 +9,7 @@ use zmp_validation::identify::{
     identify_with_progress, report::write_report, summary_json, write_model, Identification,
     IdentifyOptions,
 };
+use zmp_validation::io::{check_output_file, claim_dir, REPORT_MARKER};
 
 /// The default model path: `<campaign>/../<campaign-folder-name>-identified.toml`.
 pub fn default_out(campaign: &Path) -> PathBuf {
@@ -53,6 +54,14 @@ pub struct IdentifyArgs<'a> {
 /// Runs the identification; writes the model (and the report if asked).
 pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
     let (campaign, out, report, force, json) = (a.campaign, a.out, a.report, a.force, a.json);
+    let out = out
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| default_out(campaign));
+    // Where the results go is checked before the work starts (and again when written).
+    check_output_file(&out, force)?;
+    if let Some(dir) = report {
+        claim_dir(dir, REPORT_MARKER, force, "report")?;
+    }
     let start_model = a.model.map(load_model).transpose()?;
     let quiet = json;
     let spinner = progress_bar(1, "reading", quiet);
@@ -69,9 +78,6 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
     let pb = progress_bar(camp.records.len() as u64, "fitting", quiet);
     let ident = identify_with_progress(&camp, &opts, &|d| pb.set_position(d as u64))?;
     pb.finish_and_clear();
-    let out = out
-        .map(Path::to_path_buf)
-        .unwrap_or_else(|| default_out(campaign));
     // A model that names effects beyond the core: those are refitted with it.
     let dopts = zmp_validation::diagnose::DiagnoseOptions {
         campaign_path: campaign.display().to_string(),
@@ -169,15 +175,16 @@ pub fn record_in_ledger(
         // A starting model in the same folder joins the chain (recorded first if new).
         let parent = parent.filter(|p| p.parent() == out.parent() && p != &out);
         if let Some(p) = parent {
+            let name = p.file_name().and_then(|n| n.to_str());
             let known = zmp_validation::ledger::read(out)?
+                .entries
                 .iter()
-                .any(|e| Some(e.model.as_str()) == p.file_name().and_then(|n| n.to_str()));
+                .any(|e| Some(e.model.as_str()) == name);
             if !known {
                 let start = crate::simulate::load_model(p)?;
                 let (e0, f0) = aggregate(&evaluate(&start, &refs)?);
-                zmp_validation::ledger::append(
+                zmp_validation::ledger::append_unless_recorded(
                     p,
-                    None,
                     "starting model",
                     &opts.campaign_path,
                     e0,

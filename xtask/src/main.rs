@@ -36,10 +36,12 @@ enum Cmd {
     /// The main job on built-in data: a virtual SILO2 campaign, the model's Bode diagrams and
     /// the seed's closed-loop experiment, written to OUT (default out/demo).
     Demo {
-        /// Output folder; an earlier demo output there is replaced.
+        /// Output folder. An earlier demo output there (it holds the marker file
+        /// .zmp-demo-output) is replaced; any other non-empty folder is refused.
         #[arg(long, default_value = "out/demo")]
         out: PathBuf,
-        /// Replace OUT even if it does not hold an earlier demo output.
+        /// Accepted for scripts; changes nothing: the demo replaces its own earlier output
+        /// without it and never replaces a folder it did not write, even with it.
         #[arg(long)]
         force: bool,
         /// Print a machine-readable summary on standard output.

@@ -40,11 +40,16 @@ pub const PYTHON_PINS: &[&str] = &[
     "fmpy==0.3.32",
     "numpy==2.4.6",
     "matplotlib==3.11.2",
-    // Transitive dependencies (from `pip freeze` of the three above).
+    // FMU containers (`fmucontainer`) and `fmutool -check`: the second co-simulation master
+    // and the schema checks of the FMU tests.
+    "fmu-manipulation-toolbox==2.0",
+    // Transitive dependencies (from `pip freeze` of the four above).
     "attrs==26.1.0",
     "cmake==4.4.4",
     "contourpy==1.3.3",
+    "colorama==0.4.6",
     "cycler==0.12.1",
+    "elementpath==5.1.4",
     "fastjsonschema==2.22.3",
     "fonttools==4.68.0",
     "jinja2==3.1.6",
@@ -67,6 +72,7 @@ pub const PYTHON_PINS: &[&str] = &[
     "traitlets==5.16.1",
     "typing-extensions==4.16.0",
     "tzdata==2026.6",
+    "xmlschema==4.3.2",
 ];
 
 /// Minimum Python version of the interpreter the venv is created from (numpy 2.4 needs 3.11).

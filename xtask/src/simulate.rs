@@ -4,7 +4,7 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::Path;
 use zmp_models::ModelSpec;
-use zmp_validation::campaign::{write_campaign, Campaign};
+use zmp_validation::campaign::{check_destination, write_campaign, Campaign};
 use zmp_validation::virtual_robot::{simulate_campaign_with_progress, ExperimentDesign};
 
 pub fn load_model(path: &Path) -> Result<ModelSpec> {
@@ -19,11 +19,7 @@ pub fn load_design(path: Option<&Path>) -> Result<ExperimentDesign> {
         Some(p) => {
             let text = std::fs::read_to_string(p)
                 .with_context(|| format!("reading design file {}", p.display()))?;
-            let d: ExperimentDesign = toml::from_str(&text)
-                .map_err(|e| anyhow::anyhow!("{}: {}", p.display(), e.message()))?;
-            d.check()
-                .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
-            Ok(d)
+            ExperimentDesign::from_toml(&text, &p.display().to_string()).map_err(anyhow::Error::msg)
         }
     }
 }
@@ -50,6 +46,11 @@ pub fn simulate(
     force: bool,
     quiet: bool,
 ) -> Result<Campaign> {
+    // The destination is checked before the simulation (and again when written).
+    check_destination(out, force).with_context(|| format!("writing campaign {}", out.display()))?;
+    design
+        .check()
+        .map_err(|e| anyhow::anyhow!("experiment design: {e}"))?;
     let n = design.records().len() as u64;
     let pb = progress_bar(n, "simulating", quiet);
     let camp = simulate_campaign_with_progress(spec, design, &|d| pb.set_position(d as u64))?;

@@ -109,8 +109,14 @@ fn cargo_build(
 }
 
 /// Writes `entries` as a zip archive at `path`: to a temporary file in the same directory,
-/// then renamed into place.
-pub fn write_zip(path: &Path, entries: &[(String, Vec<u8>)]) -> Result<(), String> {
+/// synced, then moved into place: renamed over an existing file when `overwrite`, otherwise
+/// hard-linked, which refuses an existing file atomically (a concurrent writer that got there
+/// first wins, and this one gets the `--force` error).
+pub fn write_zip(
+    path: &Path,
+    entries: &[(String, Vec<u8>)],
+    overwrite: bool,
+) -> Result<(), String> {
     let dir = path.parent().unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let tmp = dir.join(format!(
@@ -145,16 +151,26 @@ pub fn write_zip(path: &Path, entries: &[(String, Vec<u8>)]) -> Result<(), Strin
                 .map_err(|e| e.to_string())?;
             zw.write_all(data).map_err(|e| e.to_string())?;
         }
-        zw.finish().map_err(|e| e.to_string())?;
-        Ok(())
-    })();
-    match result {
-        Ok(()) => std::fs::rename(&tmp, path).map_err(|e| format!("{}: {e}", path.display())),
-        Err(e) => {
+        let file = zw.finish().map_err(|e| e.to_string())?;
+        file.sync_all().map_err(|e| format!("syncing: {e}"))?;
+        if overwrite {
+            std::fs::rename(&tmp, path).map_err(|e| e.to_string())
+        } else {
+            let linked = std::fs::hard_link(&tmp, path);
             let _ = std::fs::remove_file(&tmp);
-            Err(format!("{}: {e}", path.display()))
+            linked.map_err(|e| {
+                if e.kind() == std::io::ErrorKind::AlreadyExists {
+                    "exists; refusing to overwrite it (use --force)".to_string()
+                } else {
+                    e.to_string()
+                }
+            })
         }
-    }
+    })();
+    result.map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        format!("{}: {e}", path.display())
+    })
 }
 
 /// Display name of the model: its `name`, else the file stem.
@@ -297,7 +313,7 @@ pub fn build_fmus(model: &Path, out: &Path, opts: &BuildOptions) -> Result<Vec<P
                 fmi3_entries(*kind, &model_toml, xml, &read(lib)?)
             }
         };
-        write_zip(path, &entries)?;
+        write_zip(path, &entries, opts.force)?;
         written.push(path.clone());
     }
     Ok(written)

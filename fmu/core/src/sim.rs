@@ -8,11 +8,22 @@
 //! `[t, t + H]` may have any length `H > 0`:
 //!
 //! * **Plant.** The plant advances every grid step `t_n -> t_{n+1}` with `t_{n+1} <= t + H`.
-//!   The first of them ramps the CoM reference linearly from the value used in the previous
-//!   grid step to the input value set at `t`; the others hold it (`Plant::advance`). The
-//!   outputs at `t + H` are those at the last grid point at or before `t + H`. An input set at a
-//!   communication point between grid points therefore takes effect from the grid point before
-//!   it, and a communication step shorter than `h` may leave the outputs unchanged.
+//!   By default the CoM reference set at `t` is held constant over the whole communication step
+//!   (FMI 2.0/3.0 co-simulation: inputs are constant over `[t, t + H]`), which the plant steps
+//!   as the exact zero-order hold. When an input's first derivative is set
+//!   (FMI 2.0 `fmi2SetRealInputDerivatives` with order 1; FMI 3.0 removed input derivatives
+//!   from co-simulation, so the FMI 3.0 plant always holds), the input
+//!   follows the line `u + du (tau - t_set)` instead (first-order hold), `t_set` the
+//!   communication point at which the value or the derivative was last set; a derivative stays
+//!   until it is set again. The outputs at `t + H` are those at the last grid point at or
+//!   before `t + H`, computed with the input as it is there. An input set at a communication
+//!   point between grid points therefore takes effect from the grid point before it, and a
+//!   communication step shorter than `h` may leave the outputs unchanged: communication steps
+//!   that are multiples of `h` are exact.
+//!
+//!   The operating point of `operating_point_dependence` is the CoM reference when
+//!   initialisation ends (the inputs' values then), as a campaign record's operating point is
+//!   the reference it starts from; the plant starts at rest there.
 //! * **Controller.** Sample `n` is taken at `t_n` from the inputs current at that instant. The
 //!   outputs depend directly on the inputs (the seed's cascade computes the CoM reference of
 //!   sample `n` from the ZMP error at `t_n`): while the communication point is a sample instant
@@ -174,6 +185,11 @@ pub struct Slave {
     /// Table indices of the inputs and outputs, in role order.
     input_index: Vec<usize>,
     output_index: Vec<usize>,
+    /// First time derivative of each input (FMI 2.0 `fmi2SetRealInputDerivatives`; the
+    /// plant's only).
+    input_derivative: [f64; 4],
+    /// Communication time to which each input's value refers (its derivative's origin).
+    input_time: [f64; 4],
     step_index: Option<usize>,
     sim: Option<Sim>,
     /// The simulation must be rebuilt before it is used (values changed before initialisation).
@@ -225,6 +241,7 @@ impl Slave {
             table.n_outputs,
         );
         let step_index = table.vars.iter().position(|v| v.role == Role::Step);
+
         let values = table.vars.iter().map(|v| v.start).collect();
         Ok(Slave {
             table,
@@ -233,6 +250,8 @@ impl Slave {
             values,
             input_index,
             output_index,
+            input_derivative: [0.0; 4],
+            input_time: [0.0; 4],
             step_index,
             sim: None,
             stale: true,
@@ -264,6 +283,19 @@ impl Slave {
         self.outputs_dirty = false;
         self.initialized = false;
         self.t_start = 0.0;
+        self.input_time = [0.0; 4];
+        self.input_derivative = [0.0; 4];
+    }
+
+    /// Value of input `k` at time `t` (on its line when a derivative is set).
+    fn input_at(&self, k: usize, t: f64) -> f64 {
+        let u = self.values[self.input_index[k]];
+        let du = self.input_derivative[k];
+        if du == 0.0 {
+            u
+        } else {
+            u + du * (t - self.input_time[k])
+        }
     }
 
     /// The start time of the experiment (before initialisation).
@@ -302,8 +334,13 @@ impl Slave {
             }
             var.check(v)?;
         }
+        let now = self.communication_time();
         for (&vr, &v) in vrs.iter().zip(vals) {
             let i = self.table.index_of(vr).expect("checked");
+            // A new value starts the input's line now.
+            if let Role::Input(k) = self.table.vars[i].role {
+                self.input_time[k] = now;
+            }
             self.values[i] = v;
         }
         if !self.initialized {
@@ -311,6 +348,72 @@ impl Slave {
         }
         self.outputs_dirty = true;
         Ok(())
+    }
+
+    /// `fmi2SetRealInputDerivatives`: sets the `orders[i]`-th time derivative of the input
+    /// `vrs[i]`. First derivatives are used (the input follows its line over the
+    /// communication step, see the module docs); higher ones are accepted and ignored, each
+    /// named in the returned warnings. Nothing is set unless every argument is valid.
+    pub fn set_input_derivatives(
+        &mut self,
+        vrs: &[u32],
+        orders: &[i32],
+        vals: &[f64],
+    ) -> Result<Vec<String>, String> {
+        if vrs.len() != vals.len() || vrs.len() != orders.len() {
+            return Err("value reference, order and value arrays differ in length".into());
+        }
+        if !self.table.interpolates_inputs() {
+            return Err(format!(
+                "the {} FMU does not use input derivatives (canInterpolateInputs = false)",
+                self.table.kind.name()
+            ));
+        }
+        let mut firsts = Vec::new();
+        let mut warnings = Vec::new();
+        for ((&vr, &order), &v) in vrs.iter().zip(orders).zip(vals) {
+            let i = self.table.index_of(vr).ok_or_else(|| unknown_vr(vr))?;
+            let var = &self.table.vars[i];
+            let Role::Input(k) = var.role else {
+                return Err(format!(
+                    "{} (value reference {vr}) is not an input",
+                    var.name
+                ));
+            };
+            if order < 1 {
+                return Err(format!(
+                    "order {order} for {}: derivative orders start at 1",
+                    var.name
+                ));
+            }
+            if !v.is_finite() {
+                return Err(format!(
+                    "derivative of order {order} of {} = {v}: not a finite number",
+                    var.name
+                ));
+            }
+            if order == 1 {
+                firsts.push((k, v));
+            } else {
+                warnings.push(format!(
+                    "derivative of order {order} of {} ignored: only first derivatives are used",
+                    var.name
+                ));
+            }
+        }
+        let now = self.communication_time();
+        for (k, du) in firsts {
+            // A new slope: the line goes on from where the input is now.
+            let u = self.input_at(k, now);
+            self.values[self.input_index[k]] = u;
+            self.input_time[k] = now;
+            self.input_derivative[k] = du;
+        }
+        if !self.initialized {
+            self.stale = true;
+        }
+        self.outputs_dirty = true;
+        Ok(warnings)
     }
 
     /// Gets real variables.
@@ -373,6 +476,8 @@ impl Slave {
                     }
                 }
                 let mut plant = Plant::new(&spec, h).map_err(|e| e.to_string())?;
+                // The operating point is the reference the plant starts at rest from.
+                plant.set_operating_point([input(0), input(1)]);
                 let out = plant.reset([input(0), input(1)]);
                 Sim::Plant(PlantSim {
                     plant,
@@ -460,6 +565,8 @@ impl Slave {
         self.sim = Some(self.build_sim()?);
         self.stale = false;
         self.initialized = true;
+        // Values and derivatives set so far refer to the start time.
+        self.input_time = [self.t_start; 4];
         self.refresh_outputs()
     }
 
@@ -484,13 +591,34 @@ impl Slave {
                 .map(|&i| self.values[i])
                 .unwrap_or(0.0)
         });
+        let ramps = self.input_derivative.iter().any(|d| *d != 0.0);
+        // The plant's inputs on their lines (first-order hold), at grid time `tau`.
+        let line: [(f64, f64, f64); 2] =
+            std::array::from_fn(|k| (inputs[k], self.input_derivative[k], self.input_time[k]));
+        let at = |k: usize, tau: f64| line[k].0 + line[k].1 * (tau - line[k].2);
         match self.sim.as_mut().expect("initialised") {
             Sim::Plant(p) => {
                 let end = p.clock.check(t, dt)?;
                 let n1 = p.clock.grid.floor(end);
                 if n1 > p.n {
-                    let u = [inputs[0], inputs[1]];
-                    let out = p.plant.advance(u, (n1 - p.n) as usize);
+                    let out = if ramps {
+                        let mut out = p.plant.last_output();
+                        for m in p.n..n1 {
+                            let (ta, tb) = (p.clock.grid.time(m), p.clock.grid.time(m + 1));
+                            let (ua, ub) = ([at(0, ta), at(1, ta)], [at(0, tb), at(1, tb)]);
+                            if !ua.iter().chain(&ub).all(|v| v.is_finite()) {
+                                return Err(format!(
+                                    "the inputs on their derivatives' lines are no longer \
+                                     finite at t = {tb} s"
+                                ));
+                            }
+                            out = p.plant.step_from(ua, ub);
+                        }
+                        out
+                    } else {
+                        // Held over the step: the exact zero-order hold.
+                        p.plant.advance([inputs[0], inputs[1]], (n1 - p.n) as usize)
+                    };
                     p.n = n1;
                     p.out = PlantSim::outputs(out);
                     if p.out.iter().any(|v| !v.is_finite()) {
@@ -583,6 +711,52 @@ mod tests {
             }
             s.do_step(t, ts / 2.0).unwrap();
         }
+    }
+
+    /// `operating_point_dependence` acts in the FMU: its parameters change the outputs, and
+    /// the operating point is the CoM reference at initialisation (as the in-process plant
+    /// with `set_operating_point` at that reference).
+    #[test]
+    fn operating_point_dependence_acts_at_the_initial_reference() {
+        let text = format!("{PAPER}\n[operating_point_dependence]\nda_dx = 2.0\ndb_dy = -3.0\n");
+        let spec = ModelSpec::parse(&text, "op.toml").unwrap();
+        let op = [0.05, 0.03];
+        let run = |da_dx: f64| {
+            let mut s = Slave::from_spec(Kind::Plant, spec.clone()).unwrap();
+            let (x, y) = (vr(&s, "x_cr"), vr(&s, "y_cr"));
+            let p = vr(&s, "operating_point_dependence.da_dx");
+            s.set_real(&[x, y, p], &[op[0], op[1], da_dx]).unwrap();
+            s.initialize().unwrap();
+            let mut zmp = Vec::new();
+            for k in 0..300 {
+                let u = [op[0] + 0.004 * (3e-3 * k as f64).sin(), op[1]];
+                s.set_real(&[x, y], &u).unwrap();
+                s.do_step(k as f64 * 1e-3, 1e-3).unwrap();
+                let mut o = [0.0; 2];
+                s.get_real(&[vr(&s, "zmp_x"), vr(&s, "zmp_y")], &mut o)
+                    .unwrap();
+                zmp.push(o);
+            }
+            zmp
+        };
+        let fmu = run(2.0);
+        let mut plant = Plant::new(&spec, 1e-3).unwrap();
+        plant.set_operating_point(op);
+        plant.reset(op);
+        for (k, got) in fmu.iter().enumerate() {
+            let u = [op[0] + 0.004 * (3e-3 * k as f64).sin(), op[1]];
+            let want = plant.advance(u, 1).zmp;
+            for i in 0..2 {
+                assert!(
+                    (got[i] - want[i]).abs() < 1e-15,
+                    "step {k}: {got:?} vs {want:?}"
+                );
+            }
+        }
+        // The parameter does something: a(op) = a (1 + da_dx x) moves the ZMP by ~10 %.
+        let flat = run(0.0);
+        let moved = (fmu[299][0] - flat[299][0]).abs() / flat[299][0].abs();
+        assert!(moved > 0.05, "da_dx changed zmp_x by only {moved:.2e}");
     }
 
     /// Plant: a step of n h equals n steps of h with the same held input.

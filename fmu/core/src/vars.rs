@@ -74,8 +74,9 @@ impl Kind {
         match self {
             Kind::Plant => {
                 "2x2 ZMP plant of a biped (zmp-model/1 file): CoM references in, ZMP and CoM out. \
-                 Fixed internal step h; the inputs set at a communication point ramp linearly \
-                 over the first internal step and are held after it."
+                 Fixed internal step h; the inputs set at a communication point are held over \
+                 the step (zero-order hold), or follow their first derivatives when set \
+                 (first-order hold)."
             }
             Kind::Controller => {
                 "Cascade ZMP direct-feedback controller C1 = K1/s, C2 = K2/(s+K2) per axis, \
@@ -226,11 +227,32 @@ pub fn initial_zmp() -> [f64; 2] {
 
 /// CoM reference holding the plant of `spec` at rest with its ZMP at [`initial_zmp`], and the
 /// plant's outputs there.
+///
+/// The operating point of `operating_point_dependence` is the CoM reference itself (the
+/// plant FMU takes it from its inputs when initialisation ends), so the rest point solves
+/// `a(c) c = zmp`: found by fixed-point iteration from the origin's `a`.
 pub fn initial_operating_point(
     spec: &ModelSpec,
 ) -> Result<([f64; 2], zmp_models::PlantOutput), String> {
     let mut plant = Plant::new(spec, DEFAULT_STEP).map_err(|e| e.to_string())?;
-    let com0 = com_for_zmp(&plant, initial_zmp());
+    let mut com0 = com_for_zmp(&plant, initial_zmp());
+    for _ in 0..100 {
+        plant.set_operating_point(com0);
+        let next = com_for_zmp(&plant, initial_zmp());
+        let moved = (next[0] - com0[0]).abs() + (next[1] - com0[1]).abs();
+        com0 = next;
+        if moved <= 1e-15 {
+            break;
+        }
+    }
+    if !(com0[0].is_finite() && com0[1].is_finite()) {
+        return Err(format!(
+            "no CoM reference holds the ZMP at {:?} m with this model's pendulum and \
+             operating_point_dependence",
+            initial_zmp()
+        ));
+    }
+    plant.set_operating_point(com0);
     let out = plant.reset(com0);
     Ok((com0, out))
 }
@@ -286,7 +308,9 @@ impl VarTable {
                     Input,
                     Continuous,
                     "m",
-                    "CoM reference, lateral (x)",
+                    "CoM reference, lateral (x); held over each communication step unless its \
+                     derivative is set; its value when initialisation ends is the operating \
+                     point x of operating_point_dependence",
                     com0[0],
                     FREE,
                     Role::Input(0),
@@ -296,7 +320,9 @@ impl VarTable {
                     Input,
                     Continuous,
                     "m",
-                    "CoM reference, sagittal (y)",
+                    "CoM reference, sagittal (y); held over each communication step unless its \
+                     derivative is set; its value when initialisation ends is the operating \
+                     point y of operating_point_dependence",
                     com0[1],
                     FREE,
                     Role::Input(1),
@@ -348,7 +374,7 @@ impl VarTable {
                     "s",
                     "fixed internal step of the plant; the internal time grid is start + n h",
                     DEFAULT_STEP,
-                    (1e-9, 0.1),
+                    (1e-6, 0.1),
                     Role::Step,
                 );
                 n_inputs = 2;
@@ -660,6 +686,12 @@ impl VarTable {
         u.sort_unstable();
         u.dedup();
         u
+    }
+
+    /// Whether the FMU uses input derivatives (FMI 2.0 `canInterpolateInputs`): the plant
+    /// follows first derivatives over a communication step (first-order hold).
+    pub fn interpolates_inputs(&self) -> bool {
+        self.kind == Kind::Plant
     }
 
     /// Whether the outputs depend directly on the inputs at the same communication point.

@@ -42,10 +42,13 @@ pub fn model_description(table: &VarTable, guid: &str, model_name: &str) -> Stri
         env!("CARGO_PKG_VERSION"),
         crate::guid::binary_version(),
     );
+    // The plant uses first input derivatives (fmi2SetRealInputDerivatives, order 1).
+    let interpolates = table.interpolates_inputs();
     let _ = writeln!(
         s,
-        r#"  <CoSimulation modelIdentifier="{id}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="true" canInterpolateInputs="false" maxOutputDerivativeOrder="0" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="false" canSerializeFMUstate="false" providesDirectionalDerivative="false"/>"#
+        r#"  <CoSimulation modelIdentifier="{id}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="true" canInterpolateInputs="{interpolates}" maxOutputDerivativeOrder="0" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="false" canSerializeFMUstate="false" providesDirectionalDerivative="false"/>"#
     );
+    let vars: Vec<&crate::vars::Var> = table.vars.iter().collect();
     let _ = writeln!(s, "  <UnitDefinitions>");
     for u in table.units() {
         match base_unit(u) {
@@ -84,7 +87,7 @@ pub fn model_description(table: &VarTable, guid: &str, model_name: &str) -> Stri
         real(step)
     );
     let _ = writeln!(s, "  <ModelVariables>");
-    for (i, v) in table.vars.iter().enumerate() {
+    for (i, v) in vars.iter().enumerate() {
         let _ = writeln!(s, "    <!-- index {} -->", i + 1);
         let _ = writeln!(
             s,
@@ -110,11 +113,11 @@ pub fn model_description(table: &VarTable, guid: &str, model_name: &str) -> Stri
     }
     let _ = writeln!(s, "  </ModelVariables>");
     let _ = writeln!(s, "  <ModelStructure>");
-    let outputs: Vec<usize> = (0..table.vars.len())
-        .filter(|&i| table.vars[i].causality == Causality::Output)
+    let outputs: Vec<usize> = (0..vars.len())
+        .filter(|&i| vars[i].causality == Causality::Output)
         .collect();
-    let inputs: Vec<String> = (0..table.vars.len())
-        .filter(|&i| table.vars[i].causality == Causality::Input)
+    let inputs: Vec<String> = (0..vars.len())
+        .filter(|&i| vars[i].causality == Causality::Input)
         .map(|i| (i + 1).to_string())
         .collect();
     let deps = if table.direct_feedthrough() {

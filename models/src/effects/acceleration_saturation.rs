@@ -51,7 +51,7 @@ impl Effect for AccelerationSaturation {
             self.servo.1,
             self.h,
             &mut limits,
-            [2.0, self.limit],
+            [2.0, self.limit, 0.0],
             omega,
             amplitude,
         )

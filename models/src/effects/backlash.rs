@@ -66,6 +66,11 @@ impl Effect for Backlash {
         self.y = u;
         u
     }
+    /// The play operator is rate-independent: a jump moves it as a ramp would.
+    #[inline]
+    fn jump(&mut self, u: f64) -> f64 {
+        self.step(u)
+    }
     #[inline]
     fn step(&mut self, u: f64) -> f64 {
         let half = 0.5 * self.width;

@@ -1,18 +1,35 @@
 //! Coulomb friction in the servo: a constant force against the motion, written as the
-//! acceleration it removes. Regularised as `level * tanh(v / v_s)` with `v_s` tied to the
-//! step so the integration stays stable; small motions lag and shrink, large ones barely notice.
+//! acceleration it removes. Regularised as `level * tanh(v / v_s)`: `v_s` (m/s) is a physical
+//! parameter, the speed below which the friction force builds up (the width of the
+//! stick-slip transition; default 0.1 mm/s, far below the trunk speeds of a stepped-sine
+//! campaign). It does not depend on the plant's step: the servo integrates the stiff part with
+//! as many RK4 sub-steps as `level / v_s` needs (see [`CoulombFriction::stiffness`]). Small
+//! motions lag and shrink, large ones barely notice.
 
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
 use crate::effects::servo::servo_describing_function;
 use num_complex::Complex64;
 
-pub static PARAMS: [ParamSpec; 1] = [ParamSpec::required(
-    "level",
-    "m/s2",
-    0.0,
-    100.0,
-    "friction force over the moving mass: the CoM deceleration it causes",
-)];
+/// Default regularisation speed, m/s.
+pub const DEFAULT_V_S: f64 = 1e-4;
+
+pub static PARAMS: [ParamSpec; 2] = [
+    ParamSpec::required(
+        "level",
+        "m/s2",
+        0.0,
+        100.0,
+        "friction force over the moving mass: the CoM deceleration it causes",
+    ),
+    ParamSpec::optional(
+        "v_s",
+        "m/s",
+        1e-6,
+        1.0,
+        DEFAULT_V_S,
+        "regularisation speed: the friction is level tanh(v / v_s), full beyond a few v_s",
+    ),
+];
 
 pub static INFO: EffectInfo = EffectInfo {
     kind: "coulomb_friction",
@@ -29,9 +46,23 @@ pub static INFO: EffectInfo = EffectInfo {
 #[derive(Debug, Clone)]
 pub struct CoulombFriction {
     pub level: f64,
+    /// Regularisation speed, m/s.
+    pub v_s: f64,
     inv_v_s: f64,
     servo: (f64, f64),
     h: f64,
+}
+
+impl CoulombFriction {
+    pub fn new(level: f64, v_s: f64, servo: (f64, f64), h: f64) -> CoulombFriction {
+        CoulombFriction {
+            level,
+            v_s,
+            inv_v_s: 1.0 / v_s,
+            servo,
+            h,
+        }
+    }
 }
 
 impl Effect for CoulombFriction {
@@ -45,7 +76,7 @@ impl Effect for CoulombFriction {
             self.servo.1,
             self.h,
             &mut limits,
-            [1.0, self.level],
+            [1.0, self.level, self.v_s],
             omega,
             amplitude,
         )
@@ -67,16 +98,17 @@ impl Effect for CoulombFriction {
         };
         demand - self.level * f
     }
+    /// The steepest slope of the friction against velocity: `level / v_s`, 1/s.
+    fn stiffness(&self) -> f64 {
+        self.level * self.inv_v_s
+    }
 }
 
 fn build(ctx: &BuildContext, v: &[f64]) -> Box<dyn Effect> {
-    // The friction slope level/v_s times the RK4 sub-step (h/4) stays at 0.5: well inside
-    // RK4's stability region.
-    let v_s = (v[0] * ctx.h * 0.5).max(1e-9);
-    Box::new(CoulombFriction {
-        level: v[0],
-        inv_v_s: 1.0 / v_s,
-        servo: ctx.servo.unwrap_or((30.0, 1.0)),
-        h: ctx.h,
-    })
+    Box::new(CoulombFriction::new(
+        v[0],
+        v.get(1).copied().unwrap_or(DEFAULT_V_S),
+        ctx.servo.unwrap_or((30.0, 1.0)),
+        ctx.h,
+    ))
 }

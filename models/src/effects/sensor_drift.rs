@@ -41,6 +41,10 @@ impl Effect for SensorDrift {
         u + self.offset
     }
     #[inline]
+    fn jump(&mut self, u: f64) -> f64 {
+        u + self.offset + self.rate * (self.steps as f64 * self.h)
+    }
+    #[inline]
     fn step(&mut self, u: f64) -> f64 {
         self.steps += 1;
         // Time as n*h, never accumulated.

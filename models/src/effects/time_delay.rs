@@ -1,6 +1,8 @@
 //! Pure time delay of the CoM command (communication, computation): `e^{-s tau}`.
 //! Phase falls linearly with frequency, magnitude unchanged. Fractional delays interpolate
-//! linearly between stored steps.
+//! linearly between stored steps. A jump of the input (a held command switching at a step) is
+//! stored with its step and passed on, as a jump, at the step it reaches the output: exact
+//! when the delay is a whole number of steps; a fractional delay ramps it over one step.
 
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
 use num_complex::Complex64;
@@ -31,7 +33,10 @@ pub static INFO: EffectInfo = EffectInfo {
 #[derive(Debug, Clone)]
 pub struct TimeDelay {
     pub delay: f64,
+    /// The input at each stored step: its value at the step's end (left limit).
     buf: Vec<f64>,
+    /// Its value just after the step's end (right limit): differs from `buf` where it jumped.
+    post: Vec<f64>,
     head: usize,
     whole: usize,
     frac: f64,
@@ -40,15 +45,33 @@ pub struct TimeDelay {
 impl TimeDelay {
     pub fn new(delay: f64, h: f64) -> TimeDelay {
         let steps = delay / h;
+        // A delay within rounding of a whole number of steps is that number.
+        let steps = if (steps - steps.round()).abs() < 1e-9 * steps.max(1.0) {
+            steps.round()
+        } else {
+            steps
+        };
         let whole = steps.floor() as usize;
         let frac = steps - whole as f64;
-        let cap = ((MAX_DELAY_S / h).ceil() as usize).max(whole) + 3;
+        let cap = whole + 3;
         TimeDelay {
             delay,
             buf: vec![0.0; cap],
+            post: vec![0.0; cap],
             head: 0,
             whole,
             frac,
+        }
+    }
+
+    /// Index `k` places behind the head, wrapped without a division.
+    #[inline]
+    fn back(&self, k: usize) -> usize {
+        let n = self.buf.len();
+        if self.head >= k {
+            self.head - k
+        } else {
+            self.head + n - k
         }
     }
 }
@@ -62,20 +85,52 @@ impl Effect for TimeDelay {
     }
     fn reset(&mut self, u: f64) -> f64 {
         self.buf.iter_mut().for_each(|b| *b = u);
+        self.post.iter_mut().for_each(|b| *b = u);
         u
     }
     #[inline]
     fn step(&mut self, u: f64) -> f64 {
+        self.step_span(None, u).1
+    }
+    #[inline]
+    fn jump(&mut self, u: f64) -> f64 {
+        self.post[self.head] = u;
+        // The output jumps now only without delay.
+        if self.whole == 0 && self.frac == 0.0 {
+            u
+        } else {
+            let i0 = self.back(self.whole);
+            let i1 = self.back(self.whole + 1);
+            (1.0 - self.frac) * self.buf[i0] + self.frac * self.post[i1]
+        }
+    }
+    #[inline]
+    fn step_span(&mut self, jump: Option<f64>, u: f64) -> (Option<f64>, f64) {
+        if let Some(v) = jump {
+            self.post[self.head] = v;
+        }
+        // The delayed instant of the step's start: a stored step when the delay is whole.
+        let start = (self.frac == 0.0)
+            .then(|| self.back(self.whole))
+            .filter(|&i| self.post[i] != self.buf[i])
+            .map(|i| self.post[i]);
         let n = self.buf.len();
         self.head = if self.head + 1 == n { 0 } else { self.head + 1 };
         self.buf[self.head] = u;
-        // Indices behind the head, wrapped without a division.
-        let back = |k: usize, head: usize| if head >= k { head - k } else { head + n - k };
-        let i0 = back(self.whole, self.head);
-        let i1 = back(self.whole + 1, self.head);
-        (1.0 - self.frac) * self.buf[i0] + self.frac * self.buf[i1]
+        self.post[self.head] = u;
+        // Between stored steps i1 and i0 the input ran from post[i1] to buf[i0].
+        let i0 = self.back(self.whole);
+        let i1 = self.back(self.whole + 1);
+        (
+            start,
+            (1.0 - self.frac) * self.buf[i0] + self.frac * self.post[i1],
+        )
     }
 }
+
+/// Most stored steps of a delay: `delay / h` above it is refused (a named error of
+/// [`crate::Plant::new`]) instead of allocating gigabytes.
+pub const MAX_DELAY_STEPS: f64 = 1e7;
 
 fn build(ctx: &BuildContext, v: &[f64]) -> Box<dyn Effect> {
     Box::new(TimeDelay::new(v[0], ctx.h))

@@ -27,57 +27,12 @@ pub fn write_campaign(
     campaign: &Campaign,
     overwrite: bool,
 ) -> Result<(), CampaignError> {
-    let dest_err =
-        |message: String| CampaignError::invalid(Part::Destination, dir, None, None, None, message);
-    if dir.file_name().is_none() {
-        return Err(dest_err(
-            "is not usable as a campaign folder (it must end in a folder name)".to_owned(),
-        ));
-    }
+    // 1. What is at the destination? Decide before doing anything.
+    let existing = inspect_destination(dir, overwrite)?;
     let parent = match dir.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-
-    // 1. What is at the destination? Decide before doing anything.
-    let existing = match fs::symlink_metadata(dir) {
-        Ok(meta) => Some(meta),
-        Err(e) if e.kind() == io::ErrorKind::NotFound => None,
-        Err(e) => return Err(CampaignError::io(dir, None, "inspect", e)),
-    };
-    let mut replace_nonempty = false;
-    let mut replace_empty = false;
-    if let Some(meta) = existing {
-        if meta.file_type().is_symlink() {
-            return Err(dest_err(
-                "is a symbolic link; refusing to replace it (write to its target instead)"
-                    .to_owned(),
-            ));
-        }
-        if !meta.is_dir() {
-            return Err(dest_err(
-                "exists and is not a folder; refusing to replace it".to_owned(),
-            ));
-        }
-        let empty = fs::read_dir(dir)
-            .map_err(|e| CampaignError::io(dir, None, "read", e))?
-            .next()
-            .is_none();
-        if empty {
-            replace_empty = true;
-        } else if !overwrite {
-            return Err(CampaignError::AlreadyExists {
-                path: dir.to_path_buf(),
-            });
-        } else if !dir.join(MANIFEST_FILE).is_file() {
-            return Err(dest_err(format!(
-                "exists and holds no {MANIFEST_FILE}, so it does not look like a campaign; \
-                 refusing to replace it even with --force"
-            )));
-        } else {
-            replace_nonempty = true;
-        }
-    }
 
     // 2. Validate the manifest part (cheap) before creating anything.
     let manifest_path = dir.join(MANIFEST_FILE);
@@ -113,7 +68,7 @@ pub fn write_campaign(
     )?;
 
     // 4. Move into place.
-    if replace_nonempty {
+    if existing == Destination::Campaign {
         let aside = tempfile::Builder::new()
             .prefix(".campaign-old")
             .tempdir_in(parent)
@@ -130,14 +85,85 @@ pub fn write_campaign(
         // new campaign is complete, so it is not an error.
         let _ = aside.close();
     } else {
-        if replace_empty {
-            fs::remove_dir(dir).map_err(|e| CampaignError::io(dir, None, "replace", e))?;
+        // A rename replaces a missing or empty folder and refuses a non-empty one, atomically:
+        // of two writers that both found the destination free, exactly one gets it.
+        match fs::rename(&tmp_path, dir) {
+            Ok(()) => {
+                let _ = tmp.keep();
+            }
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::DirectoryNotEmpty | io::ErrorKind::AlreadyExists
+                ) =>
+            {
+                return Err(CampaignError::AlreadyExists {
+                    path: dir.to_path_buf(),
+                });
+            }
+            Err(e) => return Err(CampaignError::io(dir, None, "rename into place", e)),
         }
-        fs::rename(&tmp_path, dir)
-            .map_err(|e| CampaignError::io(dir, None, "rename into place", e))?;
-        let _ = tmp.keep();
     }
     Ok(())
+}
+
+/// What a campaign destination holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Destination {
+    /// Nothing, or an empty folder: free.
+    Free,
+    /// A campaign (it has a `campaign.toml`) that `overwrite` allows to replace.
+    Campaign,
+}
+
+/// Checks, before any work, that a campaign can be written at `dir` (the checks
+/// [`write_campaign`] makes first): it must be missing or an empty folder, or hold a campaign
+/// and `overwrite` be given. A folder that does not look like a campaign is never replaced.
+pub fn check_destination(dir: &Path, overwrite: bool) -> Result<(), CampaignError> {
+    inspect_destination(dir, overwrite).map(|_| ())
+}
+
+fn inspect_destination(dir: &Path, overwrite: bool) -> Result<Destination, CampaignError> {
+    let dest_err =
+        |message: String| CampaignError::invalid(Part::Destination, dir, None, None, None, message);
+    if dir.file_name().is_none() {
+        return Err(dest_err(
+            "is not usable as a campaign folder (it must end in a folder name)".to_owned(),
+        ));
+    }
+    let meta = match fs::symlink_metadata(dir) {
+        Ok(meta) => meta,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(Destination::Free),
+        Err(e) => return Err(CampaignError::io(dir, None, "inspect", e)),
+    };
+    if meta.file_type().is_symlink() {
+        return Err(dest_err(
+            "is a symbolic link; refusing to replace it (write to its target instead)".to_owned(),
+        ));
+    }
+    if !meta.is_dir() {
+        return Err(dest_err(
+            "exists and is not a folder; refusing to replace it".to_owned(),
+        ));
+    }
+    let empty = fs::read_dir(dir)
+        .map_err(|e| CampaignError::io(dir, None, "read", e))?
+        .next()
+        .is_none();
+    if empty {
+        Ok(Destination::Free)
+    } else if !overwrite {
+        Err(CampaignError::AlreadyExists {
+            path: dir.to_path_buf(),
+        })
+    } else if !dir.join(MANIFEST_FILE).is_file() {
+        Err(dest_err(format!(
+            "exists and holds no {MANIFEST_FILE}, so it does not look like a campaign; \
+             refusing to replace it even with --force"
+        )))
+    } else {
+        Ok(Destination::Campaign)
+    }
 }
 
 /// Validates the header and record metadata; returns each record's file path as written in
@@ -207,6 +233,6 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<(), CampaignError> {
     }
     let mut f = fs::File::create(path).map_err(|e| CampaignError::io(path, None, "create", e))?;
     f.write_all(bytes)
-        .and_then(|()| f.flush())
+        .and_then(|()| f.sync_all())
         .map_err(|e| CampaignError::io(path, None, "write", e))
 }
