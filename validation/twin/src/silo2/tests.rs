@@ -1,0 +1,1 @@
+//! Tests of the SILO2 twin.
