@@ -530,11 +530,7 @@ fn summarise_diagnosis(d: &Diagnosis, final_model: Option<PathBuf>) -> Diagnosis
         .findings
         .iter()
         .filter(|f| selected.contains(&f.effect))
-        .flat_map(|f| {
-            f.parameters
-                .iter()
-                .map(|(k, v)| (format!("{}.{k}", f.effect), *v))
-        })
+        .flat_map(|f| f.parameters.iter().map(|(k, v)| (k.clone(), *v)))
         .collect();
     DiagnosisSummary {
         verdict: d.verdict.clone(),
