@@ -48,6 +48,7 @@ pub fn render_frames(
         .width(WIDTH)
         .height(HEIGHT)
         .camera(MjvCamera::new_fixed(cam))
+        .png_compression(mujoco_rs::renderer::png::Compression::Balanced)
         .build(&twin.model)
         .map_err(|e| err(format!("cannot open a headless OpenGL context (EGL): {e}")))?;
     let mut d = twin.stand()?;
