@@ -157,7 +157,7 @@ pub fn demo_step(out: &Path, quiet: bool) -> Result<()> {
     for n in ["a11", "b11", "b22"] {
         let r = row(n);
         say(&format!(
-            "   {n}: identified {:.4}, predicted from the twin's mass properties {:.4} (seed eq. 15: {:.4})",
+            "   {n}: identified {:.4}, predicted from the twin's mass properties {:.4} (seed eqs. 6-15, point mass: {:.4})",
             f(&r["identified"]),
             f(&r["servo"]),
             f(&r["seed"])

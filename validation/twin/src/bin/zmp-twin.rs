@@ -58,6 +58,10 @@ enum Silo2Cmd {
         /// Do not render frames of the robot.
         #[arg(long)]
         no_frames: bool,
+        /// Delay of the ZMP measurement, s (0 to 1; the campaign states it in campaign.toml's
+        /// `robot` field; the closed loop's controller sees the same sensor).
+        #[arg(long, default_value_t = 0.0)]
+        zmp_delay: f64,
         /// Why frames cannot be rendered on this machine (set by `cargo xtask validate` when it
         /// builds without the `renderer` feature); written into the report.
         #[arg(long, hide = true)]
@@ -83,6 +87,9 @@ enum Silo2Cmd {
         /// Worker threads (default: the available cores).
         #[arg(long)]
         threads: Option<usize>,
+        /// Delay of the ZMP measurement, s (0 to 1; stated in campaign.toml's `robot` field).
+        #[arg(long, default_value_t = 0.0)]
+        zmp_delay: f64,
     },
     /// The twin's mass properties and what they predict for the seed's model at the campaign's
     /// operating points (no dynamics simulated).
@@ -141,6 +148,7 @@ fn run(cli: Cli) -> Result<()> {
                 model,
                 threads: n,
                 no_frames,
+                zmp_delay,
                 frames_unavailable,
             } => {
                 let summary = validate::validate(&validate::ValidateOptions {
@@ -151,6 +159,7 @@ fn run(cli: Cli) -> Result<()> {
                     threads: threads(n),
                     quiet: json,
                     frames: frames(no_frames, frames_unavailable),
+                    zmp_delay,
                 })?;
                 if json {
                     println!("{}", serde_json::to_string_pretty(&summary)?);
@@ -164,14 +173,16 @@ fn run(cli: Cli) -> Result<()> {
                 json,
                 model,
                 threads: n,
+                zmp_delay,
             } => {
                 let twin = silo2::Silo2::load(&model)?;
                 let props = silo2::props::mass_properties(&twin)?;
-                let design = if short {
+                let mut design = if short {
                     TwinDesign::short()
                 } else {
                     TwinDesign::full()
                 };
+                design.sensor.delay = zmp_delay;
                 let pb = if json {
                     indicatif::ProgressBar::hidden()
                 } else {

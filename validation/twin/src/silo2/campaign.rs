@@ -170,6 +170,8 @@ impl TwinDesign {
         if self.periods < 2 {
             return Err("periods must be at least 2".into());
         }
+        crate::zmp::ZmpSensor::<1>::new(self.sensor, STEP, 0)
+            .map_err(|m| format!("sensor: {m}"))?;
         Ok(())
     }
 }

@@ -123,6 +123,54 @@ fn broken_model_files_are_named_errors() {
     assert!(e.to_string().contains("/nonexistent/silo2.xml"));
 }
 
+#[test]
+fn the_stated_zmp_delay_delays_the_measured_zmp() {
+    use crate::zmp::ZmpSensorSpec;
+    use zmp_models::harmonic::first_harmonic;
+    use zmp_validation::campaign::RecordMeta;
+    let t = twin();
+    let p = mass_properties(&t).unwrap();
+    let omega = 6.0;
+    let phase = |delay: f64| {
+        let mut design = campaign::TwinDesign::short();
+        design.sensor = ZmpSensorSpec {
+            force_noise_std: 0.0,
+            quantisation: 0.0,
+            delay,
+            seed: 0,
+        };
+        design.min_steady_s = 2.0;
+        design.settle_s = 1.0;
+        let meta = RecordMeta {
+            file: "r.csv".into(),
+            excited: zmp_models::Axis::X,
+            omega,
+            amplitude: 0.0015,
+            operating_point: [0.0, 0.0],
+        };
+        let r = campaign::simulate_record(&t, &p, &design, &meta, 0).unwrap();
+        // Whole periods after the transient.
+        let dt = r.dt();
+        let per = 2.0 * std::f64::consts::PI / omega / dt;
+        let n0 = (design.transient_s / dt) as usize;
+        let n = ((r.len() - n0) as f64 / per).floor() * per;
+        let n = n.round() as usize;
+        let z = first_harmonic(&r.zmp_x[n0..n0 + n], omega, dt, r.t[n0]);
+        let u = first_harmonic(&r.x_cr[n0..n0 + n], omega, dt, r.t[n0]);
+        (z / u).arg()
+    };
+    // A 20 ms delay lags the ZMP by omega * 20 ms = 6.9 degrees (within 0.2 degrees: the
+    // window is a whole number of samples, not of periods).
+    let lag = phase(0.0) - phase(0.02);
+    assert!(
+        (lag - omega * 0.02).abs() < 0.2f64.to_radians(),
+        "lag {lag} rad"
+    );
+    let mut bad = campaign::TwinDesign::short();
+    bad.sensor.delay = 2.0;
+    assert!(bad.check().unwrap_err().contains("delay"));
+}
+
 /// The short validation, run once for the tests below (about 20 s of CPU in release).
 fn short_run() -> &'static (tempfile::TempDir, Summary) {
     static RUN: OnceLock<(tempfile::TempDir, Summary)> = OnceLock::new();
@@ -137,6 +185,7 @@ fn short_run() -> &'static (tempfile::TempDir, Summary) {
             threads: 2,
             quiet: true,
             frames: Frames::Skip("frames not rendered: tests".into()),
+            zmp_delay: 0.0,
         })
         .expect("the short validation runs");
         (dir, s)

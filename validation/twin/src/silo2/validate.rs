@@ -64,6 +64,8 @@ pub struct ValidateOptions {
     /// No progress bars (and no text).
     pub quiet: bool,
     pub frames: Frames,
+    /// Delay of the ZMP measurement, s (campaign and closed loop; stated in `campaign.toml`).
+    pub zmp_delay: f64,
 }
 
 /// The robot's posture at one frame.
@@ -280,11 +282,12 @@ pub fn validate(opts: &ValidateOptions) -> Result<Summary> {
     // 1. The twin and its predictions.
     let twin = Silo2::load(&opts.model)?;
     let props = mass_properties(&twin)?;
-    let design = if opts.short {
+    let mut design = if opts.short {
         TwinDesign::short()
     } else {
         TwinDesign::full()
     };
+    design.sensor.delay = opts.zmp_delay;
     let predictions = design
         .operating_points
         .iter()
