@@ -77,14 +77,13 @@ pub struct Silo2Args<'a> {
 
 fn silo2_args(a: &Silo2Args, egl: &std::result::Result<PathBuf, String>) -> Vec<OsString> {
     let mut args: Vec<OsString> = vec!["silo2".into(), "validate".into()];
-    if let Some(o) = a.out {
-        // The binary runs in the repository root: make a relative path the user's.
-        let o = std::env::current_dir()
-            .map(|d| d.join(o))
-            .unwrap_or_else(|_| o.to_path_buf());
-        args.push("--out".into());
-        args.push(o.into());
-    }
+    // The binary runs in the repository root: relative paths (and the default) are the user's.
+    let o = a.out.unwrap_or(Path::new("out/twin-silo2"));
+    let o = std::env::current_dir()
+        .map(|d| d.join(o))
+        .unwrap_or_else(|_| o.to_path_buf());
+    args.push("--out".into());
+    args.push(o.into());
     for (on, flag) in [
         (a.short, "--short"),
         (a.force, "--force"),
