@@ -8,13 +8,15 @@
 //! - [`crosscheck`]: the corner-sensor ZMP against MuJoCo's contact centre of pressure and the
 //!   momentum / cart-table ZMP, and the contact-softness error budget;
 //! - [`closed_loop`]: the seed's section 6.6 experiment with the cascade controller;
-//! - [`validate`]: all of it, the identification and the diagnosis, into one report.
+//! - [`validate`]: all of it, the identification and the diagnosis, into one report
+//!   ([`summary`]: what it found, [`report`]: the HTML page and the closed-loop figure).
 
 pub mod campaign;
 pub mod closed_loop;
 pub mod crosscheck;
 pub mod props;
 pub mod report;
+pub mod summary;
 pub mod validate;
 
 use crate::mj::{load_mjcf, TwinError};
