@@ -80,7 +80,7 @@ pub fn ci() -> Result<()> {
 /// xtask package's CARGO_PKG_*, CARGO_MANIFEST_*, CARGO_PRIMARY_PACKAGE, ...
 /// Don't leak them into the nested cargo: clippy-driver, for one, reads
 /// CARGO_PRIMARY_PACKAGE to decide which crates to lint.
-fn strip_cargo_run_env(cmd: &mut Command) {
+pub(crate) fn strip_cargo_run_env(cmd: &mut Command) {
     const PREFIXES: &[&str] = &["CARGO_PKG_", "CARGO_MANIFEST_"];
     const NAMES: &[&str] = &[
         "CARGO_CRATE_NAME",

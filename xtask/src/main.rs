@@ -9,6 +9,7 @@ mod identify;
 mod loop_cmd;
 mod setup;
 mod simulate;
+mod twin;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -33,8 +34,9 @@ enum Cmd {
     },
     /// What CI runs: setup, then cargo fmt --check, clippy -D warnings, test (release).
     Ci,
-    /// The main job on built-in data: a virtual SILO2 campaign, the model's Bode diagrams and
-    /// the seed's closed-loop experiment, written to OUT (default out/demo).
+    /// The main job on built-in data: a virtual SILO2 campaign, the model's Bode diagrams, the
+    /// seed's closed-loop experiment, identification, the diagnosis loop and a short
+    /// validation on the MuJoCo twin of SILO2, written to OUT (default out/demo).
     Demo {
         /// Output folder. An earlier demo output there (it holds the marker file
         /// .zmp-demo-output) is replaced; any other non-empty folder is refused.
@@ -213,6 +215,12 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// Validate the seed's model on a MuJoCo twin (physics the project did not write): campaign,
+    /// identification, closed loop and diagnosis on the twin, with an HTML report.
+    Validate {
+        #[command(subcommand)]
+        robot: ValidateRobot,
+    },
     /// The versions that led to a model (from the ledger beside it: identify and augment
     /// write it) with their errors, as a table and an error waterfall (SVG).
     History {
@@ -222,6 +230,29 @@ enum Cmd {
         #[arg(long)]
         plot: Option<PathBuf>,
         /// Print the versions as JSON.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Subcommand)]
+enum ValidateRobot {
+    /// The SILO2 twin (models/mjcf/silo2.xml, first seed): mass-property predictions of the
+    /// seed's a and b, ZMP cross-checks and contact-softness budget, a stepped-sine campaign
+    /// and its identification, the cascade controller's step and 4 kg load against the
+    /// identified model, the diagnosis, frames; OUT/report.html and OUT/summary.json.
+    Silo2 {
+        /// Output folder (default out/twin-silo2); replaced only with --force and only if an
+        /// earlier validation wrote it.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// The short version (what CI and the demo run): 10 campaign records instead of 144.
+        #[arg(long)]
+        short: bool,
+        /// Replace OUT if it holds an earlier validation.
+        #[arg(long)]
+        force: bool,
+        /// Print the summary (summary.json) on standard output.
         #[arg(long)]
         json: bool,
     },
@@ -320,6 +351,20 @@ fn run(cli: Cli) -> Result<()> {
             })
             .map(|_| ())
         }
+        Cmd::Validate {
+            robot:
+                ValidateRobot::Silo2 {
+                    out,
+                    short,
+                    force,
+                    json,
+                },
+        } => twin::validate_silo2(&twin::Silo2Args {
+            out: out.as_deref(),
+            short,
+            force,
+            json,
+        }),
         Cmd::History { model, plot, json } => {
             diagnose::history_cmd(&model, plot.as_deref(), true, json)
         }

@@ -33,9 +33,10 @@ pub const APT_PACKAGES: &[&str] = &[
     "valgrind",
 ];
 
-/// Exact Python package pins for the venv (CPython >= 3.11). The first three
-/// are what the project uses; the rest are their dependencies, pinned too so
-/// that every machine gets the same environment.
+/// Exact Python package pins for the venv (CPython >= 3.11). The first four
+/// are what the project uses (MuJoCo's own Python bindings are the speed peer of
+/// the twin's step, `bench/peers/mujoco_step.py`); the rest are their
+/// dependencies, pinned too so that every machine gets the same environment.
 pub const PYTHON_PINS: &[&str] = &[
     "fmpy==0.3.32",
     "numpy==2.4.6",
@@ -43,15 +44,21 @@ pub const PYTHON_PINS: &[&str] = &[
     // FMU containers (`fmucontainer`) and `fmutool -check`: the second co-simulation master
     // and the schema checks of the FMU tests.
     "fmu-manipulation-toolbox==2.0",
-    // Transitive dependencies (from `pip freeze` of the four above).
+    // MuJoCo's Python bindings: the speed peer of the twin step.
+    "mujoco==3.17.0",
+    // Transitive dependencies (from `pip freeze` of the packages above).
+    "absl-py==2.5.1",
     "attrs==26.1.0",
     "cmake==4.4.4",
     "contourpy==1.3.3",
     "colorama==0.4.6",
     "cycler==0.12.1",
     "elementpath==5.1.4",
+    "etils==1.15.0",
     "fastjsonschema==2.22.3",
     "fonttools==4.68.0",
+    "fsspec==2026.9.0",
+    "glfw==2.11.0",
     "jinja2==3.1.6",
     "jsonschema==4.26.0",
     "jsonschema-specifications==2025.9.1",
@@ -65,6 +72,7 @@ pub const PYTHON_PINS: &[&str] = &[
     "packaging==26.3",
     "pillow==13.0.0",
     "platformdirs==4.14.7",
+    "pyopengl==3.1.10",
     "pyparsing==3.3.3",
     "python-dateutil==4.0.0",
     "referencing==0.37.0",
@@ -73,6 +81,8 @@ pub const PYTHON_PINS: &[&str] = &[
     "typing-extensions==4.16.0",
     "tzdata==2026.6",
     "xmlschema==4.3.2",
+    "websockets==17.4",
+    "zipp==4.1.2",
 ];
 
 /// Minimum Python version of the interpreter the venv is created from (numpy 2.4 needs 3.11).
@@ -560,6 +570,11 @@ fn ensure_venv(p: &Prereqs, log: &Log) -> Result<()> {
             "--no-input",
         ])
         .args(PYTHON_PINS);
+        // The MuJoCo wheel downloaded for the shared library serves pip too.
+        let wheels = p.deps_dir.join("wheels");
+        if wheels.is_dir() {
+            cmd.arg("--find-links").arg(&wheels);
+        }
         if log.quiet {
             cmd.arg("-q");
         }
@@ -584,7 +599,7 @@ fn ensure_venv(p: &Prereqs, log: &Log) -> Result<()> {
         );
     }
     log.step(format_args!(
-        "python venv: ready in {} (fmpy, numpy, matplotlib importable)",
+        "python venv: ready in {} (fmpy, numpy, matplotlib, mujoco importable)",
         p.venv_dir.display()
     ));
     Ok(())
@@ -618,7 +633,7 @@ for spec in sys.argv[1:]:
 if bad:
     print('\\n'.join(bad))
     sys.exit(1)
-import fmpy, numpy, matplotlib
+import fmpy, numpy, matplotlib, mujoco
 ";
     let out = Command::new(python)
         .args(["-c", SCRIPT])
