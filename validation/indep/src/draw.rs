@@ -19,7 +19,7 @@
 //! | effect | parameters |
 //! | --- | --- |
 //! | `time_delay` | τ = 10→150 ms on one axis; the other the same (p = 0.6, one shared bus) or τ × U(0.5, 1.5) within 10-150 ms |
-//! | `backlash` | play w = 0.3→2.5 mm on one axis, the other w × U(0.6, 1.4) within 0.3-2.5 mm; flank contact 150-300 rad/s (U), damping ratio U(0.1, 0.3) |
+//! | `backlash` | play w = 0.3→2.5 mm on one axis, the other w × U(0.6, 1.4) within 0.3-2.5 mm; flank contact (trunk on the mesh, drive clamped) U(100, 250) rad/s, damping ratio U(0.1, 0.3), trunk-joint drag time U(0.02, 0.1) s |
 //! | `coulomb_friction` | kinetic = static = `accel_limit` × (0.02→0.2) × U(0.7, 1.3) |
 //! | `acceleration_saturation` | `accel_limit` = `D_j` × (0.5→0.25) × U(0.9, 1.1) (instead of 0.6-1.5) |
 //! | `structural_mode` | trunk on a flexible link, both axes: frequency U(10, 35) rad/s, damping ratio logU(0.02, 0.12), flexible share of the trunk (0.15→0.6) × U(0.8, 1.2) within 0.15-0.6 |
@@ -291,9 +291,10 @@ fn draw_effect(
             let widths = pair_swapped(rng, w, other);
             EffectParams::Transmission(widths.map(|play| Transmission {
                 play,
-                omega: rng.gen_range(150.0..300.0),
+                omega: rng.gen_range(100.0..250.0),
                 zeta: rng.gen_range(0.1..0.3),
                 hardening_deflection: None,
+                load_drag_time: Some(rng.gen_range(0.02..0.1)),
             }))
         }
         Effect::CoulombFriction | Effect::StribeckFriction => {
@@ -363,6 +364,7 @@ fn draw_effect(
                 omega,
                 zeta: rng.gen_range(0.05..0.15),
                 hardening_deflection: Some(deflection * log_at(1.0, 0.3, q)),
+                load_drag_time: None,
             }
         })),
         Effect::SensorLowpass => {

@@ -37,8 +37,9 @@ use crate::robot::{CrossCoupling, Robot};
 
 /// Maximum bodies per axis.
 pub(crate) const MAX_NODES: usize = 4;
-/// Length of the integrator state: per axis 4 positions and 4 velocities, then 2 filter states.
-pub(crate) const STATE_LEN: usize = 18;
+/// Length of the integrator state: per axis 4 positions and 4 velocities, then 2 filter
+/// states, then the 2 running integrals of the sensor signal (for the sample averages).
+pub(crate) const STATE_LEN: usize = 20;
 /// The integrator state.
 pub(crate) type State = [f64; STATE_LEN];
 
@@ -56,6 +57,11 @@ pub(crate) fn vi(a: usize, n: usize) -> usize {
 #[inline]
 pub(crate) fn yi(i: usize) -> usize {
     16 + i
+}
+/// Index of the running integral of output `i`'s sensor signal.
+#[inline]
+pub(crate) fn ii(i: usize) -> usize {
+    18 + i
 }
 
 /// The discrete state of the joint friction of one axis.
@@ -134,8 +140,10 @@ pub(crate) struct AxisModel {
     links: [Link; MAX_NODES - 1],
     /// Spring and damper of each link for the small-signal response: `(k, c)`.
     pub link_kc: [(f64, f64); MAX_NODES - 1],
-    /// The node of the trunk joint (friction and inertial coupling act there).
+    /// The node of the trunk joint (friction, drag and inertial coupling act there).
     pub joint: usize,
+    /// Viscous drag on the joint node, specific force per velocity, 1/s.
+    pub joint_drag: f64,
     pub kp: f64,
     pub kv: f64,
     pub accel_limit: f64,
@@ -146,50 +154,7 @@ pub(crate) struct AxisModel {
     pub half_play: f64,
     /// Whether the small-signal response describes this axis (no play, no friction).
     pub is_smooth: bool,
-    /// An estimate of the fastest rate of this axis's equations, 1/s.
-    pub fastest_rate: f64,
-}
-
-/// An estimate of the fastest rate of an axis's (linearised) equations, 1/s: the largest of
-/// the two-body rates of the servo on the drive node and of each link between its two nodes.
-/// A second-order pair with stiffness rate `ω² = k (1/m_i + 1/m_j)` and damping rate
-/// `γ = c (1/m_i + 1/m_j)` has roots of modulus `ω` when underdamped and at most `γ` when
-/// overdamped. A hardening spring counts with its tangent stiffness at the deflection the
-/// force limit can produce; Stribeck friction adds its steepest falling slope on the joint.
-fn fastest_rate(
-    m: &crate::robot::AxisMechanics,
-    n: usize,
-    mass: &[f64; MAX_NODES],
-    links: &[Link; MAX_NODES - 1],
-    joint: usize,
-) -> f64 {
-    let pair = |k: f64, c: f64, inv_m: f64| {
-        let (w2, g) = (k * inv_m, c * inv_m);
-        if g < 2.0 * w2.sqrt() {
-            w2.sqrt()
-        } else {
-            g
-        }
-    };
-    let s = &m.servo;
-    let mut worst = pair(
-        s.omega_n * s.omega_n,
-        2.0 * s.zeta * s.omega_n,
-        1.0 / mass[0],
-    );
-    for l in 0..n.saturating_sub(1) {
-        let link = &links[l];
-        let deflection = s.accel_limit / link.k.max(1e-300);
-        let k = link.k * (1.0 + 3.0 * deflection * deflection * link.inv_hardening_sq);
-        worst = worst.max(pair(k, link.c, 1.0 / mass[l] + 1.0 / mass[l + 1]));
-    }
-    if let Some(f) = &m.friction {
-        if let Some(vs) = f.stribeck_velocity {
-            // max |d/dv (Fs - Fc) exp(-v²/vs²)| = (Fs - Fc) sqrt(2/e) / vs
-            worst = worst.max((f.static_level - f.kinetic) * 0.8578 / vs / mass[joint]);
-        }
-    }
-    worst
+    omega_n: f64,
 }
 
 /// What one evaluation of an axis gives besides the accelerations.
@@ -229,7 +194,9 @@ impl AxisModel {
         let mut link_kc = [(0.0, 0.0); MAX_NODES - 1];
         let mut n = 0;
         let mut half_play = 0.0;
+        let mut joint_drag = 0.0;
         if let Some(t) = &m.transmission {
+            joint_drag = t.load_drag_time.map_or(0.0, |tau| body_mass[1] / tau);
             mass[0] = body_mass[0];
             n = 1;
             let k = t.omega * t.omega * load;
@@ -273,9 +240,8 @@ impl AxisModel {
             inv_mass[k] = 1.0 / mass[k];
         }
         let s = &m.servo;
-        let fastest_rate = fastest_rate(m, n, &mass, &links, joint);
         AxisModel {
-            fastest_rate,
+            omega_n: s.omega_n,
             n,
             inv_mass,
             mass,
@@ -283,6 +249,7 @@ impl AxisModel {
             links,
             link_kc,
             joint,
+            joint_drag,
             kp: s.omega_n / (2.0 * s.zeta),
             kv: 2.0 * s.zeta * s.omega_n,
             accel_limit: s.accel_limit,
@@ -300,7 +267,7 @@ impl AxisModel {
 
     /// Accelerations of axis `a` for the state `x`, servo reference `r`, external force `ext`
     /// on the joint node and friction mode `mode`.
-    #[inline]
+    #[inline(always)]
     pub fn eval(
         &self,
         x: &State,
@@ -310,8 +277,9 @@ impl AxisModel {
         mode: FrictionMode,
         acc: &mut [f64; MAX_NODES],
     ) -> AxisOut {
-        let q = &x[qi(a, 0)..qi(a, 0) + MAX_NODES];
-        let v = &x[vi(a, 0)..vi(a, 0) + MAX_NODES];
+        let base = a * 8;
+        let q: &[f64; MAX_NODES] = x[base..base + 4].try_into().expect("4 positions");
+        let v: &[f64; MAX_NODES] = x[base + 4..base + 8].try_into().expect("4 velocities");
         let mut f = [0.0; MAX_NODES];
         // Servo: P position loop -> (rate limit) -> P velocity loop -> force limit.
         let v_ref = (self.kp * (r - q[0])).clamp(-self.velocity_limit, self.velocity_limit);
@@ -322,7 +290,7 @@ impl AxisModel {
             f[l + 1] += fl;
         }
         let j = self.joint;
-        f[j] += ext;
+        f[j] += ext - self.joint_drag * v[j];
         let f_other = f[j];
         let mut stuck = false;
         if let Some(fr) = &self.friction {
@@ -346,10 +314,99 @@ impl AxisModel {
         AxisOut { f_other, xc, xc_dd }
     }
 
-    /// Whether the drive-joint transmission is in contact (outside the play).
+    /// An estimate of the fastest rate of this axis's equations, 1/s, when the forces in its
+    /// links stay below `force_bound` (specific force, m/s²): the largest of the two-body
+    /// rates of the servo on the drive node and of each link between its two nodes. A pair
+    /// with stiffness rate `ω² = k (1/m_i + 1/m_j)` and damping rate `γ = c (1/m_i + 1/m_j)`
+    /// has roots of modulus `ω` when underdamped and at most `γ` when overdamped. A hardening
+    /// spring counts with its tangent stiffness at the deflection `force_bound / k`; Stribeck
+    /// friction adds its steepest falling slope on the joint.
+    pub fn fastest_rate(&self, force_bound: f64) -> f64 {
+        let pair = |k: f64, c: f64, inv_m: f64| {
+            let (w2, g) = (k * inv_m, c * inv_m);
+            if g < 2.0 * w2.sqrt() {
+                w2.sqrt()
+            } else {
+                g
+            }
+        };
+        let mut worst = pair(self.kp * self.kv, self.kv, self.inv_mass[0]);
+        for l in 0..self.n - 1 {
+            let link = &self.links[l];
+            let deflection = force_bound / link.k.max(1e-300);
+            let k = link.k * (1.0 + 3.0 * deflection * deflection * link.inv_hardening_sq);
+            worst = worst.max(pair(k, link.c, self.inv_mass[l] + self.inv_mass[l + 1]));
+        }
+        worst = worst.max(self.joint_drag * self.inv_mass[self.joint]);
+        if let Some(f) = &self.friction {
+            if f.inv_vs_sq > 0.0 {
+                // max |d/dv (Fs - Fc) exp(-v²/vs²)| = (Fs - Fc) sqrt(2/e) / vs
+                let slope = (f.static_level - f.kinetic) * 0.8578 * f.inv_vs_sq.sqrt();
+                worst = worst.max(slope * self.inv_mass[self.joint]);
+            }
+        }
+        worst
+    }
+
+    /// A bound of the link forces a stepped sine of amplitude `a` at `omega` can cause: the
+    /// force limit, or the steady acceleration (`1.2 a ω²`, the servo's resonance included)
+    /// plus the start transient (`0.5 a ω ωn`, the response to the initial velocity step).
+    pub fn force_bound(&self, a: f64, omega: f64) -> f64 {
+        self.accel_limit
+            .min(a * omega * (1.2 * omega + 0.5 * self.omega_n))
+    }
+
+    /// How much a force on the joint node moves the CoM acceleration directly: the joint's
+    /// CoM weight over its mass, 0 while the joint sticks.
     #[inline]
-    pub fn in_contact(&self, x: &State, a: usize) -> bool {
-        (x[qi(a, 0)] - x[qi(a, 1)]).abs() > self.half_play
+    pub fn direct_gain(&self, mode: FrictionMode) -> f64 {
+        match (&self.friction, mode) {
+            (Some(_), FrictionMode::Stick) => 0.0,
+            _ => self.com_weight[self.joint] * self.inv_mass[self.joint],
+        }
+    }
+
+    /// Which branch of each piecewise law of this axis is active at `x` for the servo
+    /// reference `r`: bits 0-1 the force limit (none, +, −), bits 2-3 the velocity limit, bits
+    /// 4-5 the play (gap, flanks pushing, flanks separating with the damper force cut to 0).
+    /// The right-hand side is smooth while this stays the same, so a change marks an event.
+    #[inline]
+    pub fn branches(&self, x: &State, a: usize, r: f64) -> u32 {
+        let q0 = x[qi(a, 0)];
+        let v0 = x[vi(a, 0)];
+        let v_raw = self.kp * (r - q0);
+        let mut bits = 0;
+        let v_ref = if v_raw > self.velocity_limit {
+            bits |= 4;
+            self.velocity_limit
+        } else if v_raw < -self.velocity_limit {
+            bits |= 8;
+            -self.velocity_limit
+        } else {
+            v_raw
+        };
+        let f = self.kv * (v_ref - v0);
+        if f > self.accel_limit {
+            bits |= 1;
+        } else if f < -self.accel_limit {
+            bits |= 2;
+        }
+        if self.half_play > 0.0 {
+            let d = q0 - x[qi(a, 1)];
+            let dv = v0 - x[vi(a, 1)];
+            let hp = self.half_play;
+            let e = if d > hp {
+                d - hp
+            } else if d < -hp {
+                d + hp
+            } else {
+                return bits;
+            };
+            let link = &self.links[0];
+            let f = link.k * e * (1.0 + e * e * link.inv_hardening_sq) + link.c * dv;
+            bits |= if f * e > 0.0 { 16 } else { 32 };
+        }
+        bits
     }
 }
 
@@ -366,10 +423,6 @@ pub(crate) struct Plant {
     pub kappa: Option<[f64; 2]>,
     /// Sensor low-pass cutoffs, rad/s.
     pub lowpass: Option<[f64; 2]>,
-    /// Whether any axis has friction or play (events to locate).
-    pub has_events: bool,
-    /// An estimate of the fastest rate of the equations, 1/s.
-    pub fastest_rate: f64,
 }
 
 /// Everything an evaluation of the plant gives besides the derivative.
@@ -387,16 +440,7 @@ impl Plant {
             AxisModel::new(&robot.axes[0]),
             AxisModel::new(&robot.axes[1]),
         ];
-        let has_events = axes
-            .iter()
-            .any(|a| a.friction.is_some() || a.half_play > 0.0);
-        let lowpass_rate = robot.sensor.lowpass_cutoff.map_or(0.0, |c| c[0].max(c[1]));
-        let fastest_rate = axes[0]
-            .fastest_rate
-            .max(axes[1].fastest_rate)
-            .max(lowpass_rate);
         Plant {
-            fastest_rate,
             axes,
             a: p.a,
             b: p.b,
@@ -406,7 +450,6 @@ impl Plant {
                 _ => None,
             },
             lowpass: robot.sensor.lowpass_cutoff,
-            has_events,
         }
     }
 
@@ -429,6 +472,8 @@ impl Plant {
     }
 
     /// The derivative `dx` of the state `x` for servo references `r` and friction `modes`.
+    /// `dx` must come zeroed (or from an earlier call): the entries of unused nodes are not
+    /// written.
     #[inline]
     pub fn derivs(
         &self,
@@ -440,17 +485,28 @@ impl Plant {
         let mut acc = [[0.0; MAX_NODES]; 2];
         let mut ext = [0.0; 2];
         if let Some(k) = self.kappa {
-            // Inertial coupling to first order in kappa: each joint is loaded by the other
-            // axis's CoM acceleration computed without the coupling.
+            // Inertial coupling, solved exactly: each joint is loaded by the other axis's
+            // actual CoM acceleration, which itself depends on the load on its own joint
+            // (`x_c'' = α + β·ext`, β = the joint's CoM weight over its mass, 0 when stuck).
             let o0 = self.axes[0].eval(x, 0, r[0], 0.0, modes[0], &mut acc[0]);
             let o1 = self.axes[1].eval(x, 1, r[1], 0.0, modes[1], &mut acc[1]);
-            ext = [-k[0] * o1.xc_dd, -k[1] * o0.xc_dd];
+            let (a0, a1) = (o0.xc_dd, o1.xc_dd);
+            let (b0, b1) = (
+                self.axes[0].direct_gain(modes[0]),
+                self.axes[1].direct_gain(modes[1]),
+            );
+            let det = 1.0 - k[0] * k[1] * b0 * b1;
+            ext = [
+                (-k[0] * a1 + k[0] * k[1] * b1 * a0) / det,
+                (-k[1] * a0 + k[1] * k[0] * b0 * a1) / det,
+            ];
         }
         let mut out = PlantOut::default();
         for a in 0..2 {
             let ax = &self.axes[a];
             out.axis[a] = ax.eval(x, a, r[a], ext[a], modes[a], &mut acc[a]);
-            for k in 0..MAX_NODES {
+            // Nodes beyond `n` never move: their derivatives stay as the caller zeroed them.
+            for k in 0..ax.n.min(MAX_NODES) {
                 dx[qi(a, k)] = x[vi(a, k)];
                 dx[vi(a, k)] = acc[a][k];
             }
@@ -465,26 +521,37 @@ impl Plant {
             Some(wc) => {
                 dx[yi(0)] = wc[0] * (out.zmp[0] - x[yi(0)]);
                 dx[yi(1)] = wc[1] * (out.zmp[1] - x[yi(1)]);
+                dx[ii(0)] = x[yi(0)];
+                dx[ii(1)] = x[yi(1)];
             }
             None => {
                 dx[yi(0)] = 0.0;
                 dx[yi(1)] = 0.0;
+                dx[ii(0)] = out.zmp[0];
+                dx[ii(1)] = out.zmp[1];
             }
         }
         out
     }
 
-    /// The sensor's ZMP before drift and noise: the filter state, or the true ZMP.
-    #[inline]
-    pub fn sensed(&self, x: &State, out: &PlantOut) -> [f64; 2] {
-        if self.lowpass.is_some() {
-            [x[yi(0)], x[yi(1)]]
-        } else {
-            out.zmp
-        }
+    /// An estimate of the fastest rate of the equations, 1/s, for a stepped sine of
+    /// amplitude `a` at `omega` (both axes bounded alike: the coupling is weak).
+    pub fn fastest_rate(&self, a: f64, omega: f64) -> f64 {
+        let lowpass = self.lowpass.map_or(0.0, |c| c[0].max(c[1]));
+        let axes = self
+            .axes
+            .iter()
+            .map(|ax| ax.fastest_rate(ax.force_bound(a, omega)));
+        axes.fold(lowpass, f64::max)
     }
 
-    /// The state at rest at the operating point `op`: every body at `op`, filter settled.
+    /// The sensor signal at rest at `op` (the static map).
+    pub fn rest_zmp(&self, op: [f64; 2]) -> [f64; 2] {
+        self.zmp(op, [0.0; 2])
+    }
+
+    /// The state at rest at the operating point `op`: every body at `op`, filter settled,
+    /// running integrals at 0.
     pub fn rest_state(&self, op: [f64; 2]) -> State {
         let mut x = [0.0; STATE_LEN];
         for a in 0..2 {

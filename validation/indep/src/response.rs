@@ -100,6 +100,7 @@ fn chain_response(ax: &AxisModel, omega: f64) -> (Complex, Complex) {
             d[k] = d[k] + z[k];
         }
     }
+    d[ax.joint] = d[ax.joint] + Complex::new(0.0, omega * ax.joint_drag);
     let wn2 = ax.kp * ax.kv;
     d[0] = d[0] + Complex::new(wn2, omega * ax.kv);
     let solve = |rhs: Vec<Complex>| -> Complex {
@@ -159,10 +160,11 @@ pub fn small_signal_response(robot: &Robot, op: [f64; 2], omega: f64) -> Option<
     let mut g = [[Complex::default(); 2]; 2];
     for j in 0..2 {
         let mut xc = [Complex::default(); 2];
-        xc[j] = resp[j].0;
-        let other = 1 - j;
-        // Inertial load on the other joint: -kappa * (uncoupled CoM acceleration of j).
-        xc[other] = resp[other].1 * (s2 * resp[j].0).scale(-kappa[other]);
+        let i = 1 - j;
+        // Inertial loads: ext_i = -kappa_i s² X_j, ext_j = -kappa_j s² X_i, X = T R + C ext.
+        let loop_gain = (s2 * s2 * resp[i].1 * resp[j].1).scale(kappa[i] * kappa[j]);
+        xc[j] = resp[j].0 / (Complex::new(1.0, 0.0) - loop_gain);
+        xc[i] = resp[i].1 * (s2 * xc[j]).scale(-kappa[i]);
         for i in 0..2 {
             let static_row = plant.a[i][0] * op[0] + plant.a[i][1] * op[1];
             let mut z = Complex::default();
@@ -178,6 +180,29 @@ pub fn small_signal_response(robot: &Robot, op: [f64; 2], omega: f64) -> Option<
         }
     }
     Some(g)
+}
+
+/// Gain of the sample averaging of the measurement at `omega` (rad/s) and `sample_rate_hz`:
+/// `sin(ωΔ/2) / (ωΔ/2)`, `Δ = 1/sample_rate_hz` (no phase: the average is centred).
+pub fn sample_average_gain(omega: f64, sample_rate_hz: f64) -> f64 {
+    let x = 0.5 * omega / sample_rate_hz;
+    if x == 0.0 {
+        1.0
+    } else {
+        x.sin() / x
+    }
+}
+
+/// What the recorded first harmonics follow: [`small_signal_response`] times
+/// [`sample_average_gain`].
+pub fn measured_response(
+    robot: &Robot,
+    op: [f64; 2],
+    omega: f64,
+    sample_rate_hz: f64,
+) -> Option<[[Complex; 2]; 2]> {
+    let k = sample_average_gain(omega, sample_rate_hz);
+    small_signal_response(robot, op, omega).map(|g| g.map(|row| row.map(|c| c.scale(k))))
 }
 
 /// Least-squares fit of `c0 + S sin ωt + C cos ωt` to the samples with `t_from ≤ t < t_to`;

@@ -185,6 +185,12 @@ pub struct Transmission {
     /// `F = k e (1 + (e/hardening_deflection)²)`. `None`: a linear spring.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub hardening_deflection: Option<f64>,
+    /// Viscous drag of the trunk joint (bearings, seals), as the time in which it would slow
+    /// the free trunk by a factor e, s: force `−m_J v_J / load_drag_time` on the joint body.
+    /// Drawn with the play so that the trunk, once disengaged, settles in the gap instead of
+    /// rattling between the flanks for ever. `None`: no drag.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load_drag_time: Option<f64>,
 }
 
 /// Friction on the trunk joint (body J), a true stick-slip law.
@@ -252,9 +258,11 @@ pub enum CrossCoupling {
         /// Added to `b21`.
         db21: f64,
     },
-    /// Inertial coupling through non-orthogonal joint axes: the trunk's inertial force along
-    /// axis j loads the joint of axis i with `−kappa_ij · x_cj''` (specific force), which axis
-    /// i's servo rejects with its own compliance. Zero at DC, unlike the pendulum form.
+    /// Inertial coupling through non-orthogonal joint axes (or a product of inertia of the
+    /// trunk): the trunk's inertial force along axis j loads the joint of axis i with
+    /// `−kappa_ij · x_cj''` (specific force, with the actual accelerations of both axes, solved
+    /// simultaneously), which axis i's servo rejects with its own compliance. Zero at DC,
+    /// growing like `ω²` through the servo's disturbance response: unlike the pendulum form.
     Inertial {
         /// Load on the x joint per unit y CoM acceleration, 1.
         kappa_xy: f64,
@@ -483,6 +491,9 @@ impl Robot {
                 positive(t.zeta, &format!("axes.{n}.transmission.zeta"))?;
                 if let Some(d) = t.hardening_deflection {
                     positive(d, &format!("axes.{n}.transmission.hardening_deflection"))?;
+                }
+                if let Some(d) = t.load_drag_time {
+                    positive(d, &format!("axes.{n}.transmission.load_drag_time"))?;
                 }
             }
             if let Some(f) = &axis.friction {
