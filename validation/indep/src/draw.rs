@@ -1,54 +1,20 @@
 //! Random robots: `draw(seed, scenario)` draws every parameter within documented ranges and
 //! sizes each hidden effect so that it is physically plausible and visible above the noise.
 //!
-//! # Ranges (U = uniform, logU = log-uniform; per axis independently unless said otherwise)
-//!
-//! | what | range |
-//! | --- | --- |
-//! | `a11`, `a22`, `b11`, `b22` | seed value × U(0.8, 1.2) |
-//! | `a12`, `a21`, `b12`, `b21` | seed value × U(0.7, 1.3) |
-//! | servo `omega_n`, `zeta` | U(22, 40) rad/s, U(0.75, 1.1) |
-//! | servo `accel_limit` | `D_j` × logU(0.6, 1.5), `D_j = max_A A · max_ω ω² |H_j(jω)|` over the design: the largest steady acceleration the design demands of the linear servo |
-//! | `drive_mass_fraction` | U(0.2, 0.5) (used with a transmission only) |
-//! | noise | white U(0.2, 0.8) mm, coloured U(0.1, 0.4) mm with correlation time logU(0.1, 1) s, same law both axes |
-//!
-//! Each hidden effect has a size quantile `q ∈ [0, 1]` that sets its main size (below, "lo→hi"
-//! is interpolated log-uniformly, `q = 1` the largest effect); its other parameters are drawn
-//! independently:
-//!
-//! | effect | parameters |
-//! | --- | --- |
-//! | `time_delay` | τ = 10→150 ms on one axis; the other the same (p = 0.6, one shared bus) or τ × U(0.5, 1.5) within 10-150 ms |
-//! | `backlash` | play w = 0.3→2.5 mm on one axis, the other w × U(0.6, 1.4) within 0.3-2.5 mm; flank contact (trunk on the mesh, drive clamped) U(100, 250) rad/s, damping ratio U(0.1, 0.3), trunk-joint drag time U(0.02, 0.1) s |
-//! | `coulomb_friction` | kinetic = static = `accel_limit` × (0.02→0.2) × U(0.7, 1.3) |
-//! | `acceleration_saturation` | `accel_limit` = `D_j` × (0.5→0.25) × U(0.9, 1.1) (instead of 0.6-1.5) |
-//! | `structural_mode` | trunk on a flexible link, both axes: frequency U(10, 35) rad/s, damping ratio logU(0.02, 0.12), flexible share of the trunk (0.15→0.6) × U(0.8, 1.2) within 0.15-0.6 |
-//! | `sensor_lowpass` | cutoff 150→15 rad/s × U(0.85, 1.15) per axis |
-//! | `operating_point_dependence` | `a` and `b` slopes per CoM axis k: ±(0.02→0.2) × U(0.5, 1) / max\|op_k\| (relative change at the farthest operating point), independent signs |
-//! | `sensor_drift` | ±(0.02→0.5) mm/s on one axis, ± that × U(0.2, 1) on the other |
-//! | `cross_coupling` | form `pendulum` (p = 0.5): Δa12, Δa21 = ±(0.03→0.25) × U(0.7, 1), Δb12, Δb21 = ±(0.005→0.05) s² × U(0.7, 1); form `inertial`: κ_xy, κ_yx = ±(0.05→0.3) × U(0.7, 1) |
-//! | `second_structural_mode` | two links in series: ω1 U(10, 25), ω2 = ω1 × U(1.5, 2.5) rad/s, ζ logU(0.02, 0.12) each, share (0.15→0.6) × U(0.8, 1.2), second share U(0.3, 0.6) |
-//! | `stribeck_friction` | kinetic as `coulomb_friction`, static = kinetic × U(1.5, 3), Stribeck velocity logU(1, 10) mm/s |
-//! | `rate_limited_servo` | velocity limit = `V_j` × (0.85→0.4) × U(0.95, 1.05), `V_j = max_A A · max_ω ω |H_j|` |
-//! | `cubic_stiffness` | compliant transmission: U(45, 90) rad/s, damping ratio U(0.05, 0.15), hardening deflection = `D_j/ω_t²` × (1.0→0.3) |
-//!
-//! # Visibility
-//!
-//! An effect is *visible* on a design when it changes the first harmonic of at least 3 of the
-//! design's records, on some output channel, by at least 6 first-harmonic noise standard
-//! deviations ([`crate::response::record_noise_std`]) **and** by at least 2 % of that
-//! channel's first harmonic without the effect. The change is measured against the base robot
-//! (the same draw without any hidden effect): for linear effects from the small-signal
-//! response at every record's operating point and frequency; for `sensor_drift` from its exact
-//! first-harmonic projection `2|rate|/ω`; for the nonlinear ones (play, friction, limits,
-//! hardening) by noise-free simulation of each (axis, amplitude, frequency) at the first
-//! operating point over the design's transient and one period, a change counting for every
-//! operating point (the mechanics do not depend on it).
-//!
-//! Sizing: the quantile is drawn U(0, 1); while the effect is invisible it is redrawn U(q, 1)
-//! (up to 8 draws, the last at q = 1). An effect still invisible at full size is kept and
-//! reported with `visible = false` (e.g. operating-point dependence on a design with a single
-//! operating point).
+//! The ranges of every parameter, the size quantile of each effect and the visibility rule
+//! are tabulated in the crate README (section "Drawing robots"); the test
+//! `every_effect_draws_a_valid_visible_robot_within_its_ranges` holds the code to them. In
+//! short: an effect is *visible* on a design when it changes the first harmonic of at least
+//! [`VISIBLE_MIN_RECORDS`] records, on some output channel, by at least [`VISIBLE_SIGMAS`]
+//! first-harmonic noise standard deviations ([`crate::response::record_noise_std`]) and by at
+//! least [`VISIBLE_RELATIVE`] of that channel's first harmonic without the effect, compared
+//! with the same draw without any hidden effect: linear effects from the small-signal
+//! response, `sensor_drift` from its exact first-harmonic projection `2|rate|/ω`, nonlinear
+//! ones by noise-free simulation of each (axis, amplitude, frequency) at the first operating
+//! point over the design's transient and one period (a change counts for every operating
+//! point: the mechanics do not depend on it). The size quantile is drawn U(0, 1) and, while
+//! the effect is invisible, redrawn U(q, 1) (8 draws at most, the last at q = 1); an effect
+//! still invisible is kept and reported with `visible = false`.
 
 use crate::design::Design;
 use crate::integrate::simulate_records;

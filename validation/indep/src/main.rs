@@ -52,13 +52,23 @@ struct Cli {
     #[arg(long)]
     design: Option<PathBuf>,
 
-    /// Print a JSON summary (records, hidden effects, paths) on standard output.
+    /// Print a JSON summary on standard output: campaign folder, record count, truth file,
+    /// seconds spent simulating and writing (never the hidden effects: read --truth for them).
     #[arg(long)]
     json: bool,
 }
 
-fn main() -> Result<()> {
-    let cli = Cli::parse();
+fn main() -> std::process::ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
     let scenario: Scenario = cli
         .scenario
         .parse()
@@ -76,6 +86,15 @@ fn main() -> Result<()> {
                 "{}: already exists; pass --force to replace it",
                 truth.display()
             );
+        }
+        if truth.exists() {
+            let text = std::fs::read_to_string(truth).unwrap_or_default();
+            if zmp_indep_sim::Robot::from_json(&text).is_err() {
+                anyhow::bail!(
+                    "{}: exists and is not a truth file of zmp-indep-sim; refusing to replace it even with --force",
+                    truth.display()
+                );
+            }
         }
         if truth.starts_with(&cli.out) {
             anyhow::bail!(
@@ -97,7 +116,6 @@ fn main() -> Result<()> {
         let summary = serde_json::json!({
             "campaign": cli.out,
             "records": n,
-            "scenario": robot.scenario,
             "truth": cli.truth,
             "simulate_and_write_s": seconds,
         });
@@ -106,7 +124,7 @@ fn main() -> Result<()> {
         eprintln!(
             "wrote {} ({n} records, scenario {}) in {seconds:.2} s{}",
             cli.out.display(),
-            robot.scenario,
+            cli.scenario,
             cli.truth
                 .as_ref()
                 .map(|t| format!("; truth in {}", t.display()))

@@ -301,15 +301,16 @@ impl AxisModel {
         }
         let mut xc = 0.0;
         let mut xc_dd = 0.0;
-        for k in 0..self.n {
-            acc[k] = f[k] * self.inv_mass[k];
+        let n = self.n;
+        for (k, a) in acc.iter_mut().enumerate().take(n) {
+            *a = f[k] * self.inv_mass[k];
             xc += self.com_weight[k] * q[k];
         }
         if stuck {
             acc[j] = 0.0;
         }
-        for k in 0..self.n {
-            xc_dd += self.com_weight[k] * acc[k];
+        for (w, a) in self.com_weight.iter().zip(acc.iter()).take(n) {
+            xc_dd += w * a;
         }
         AxisOut { f_other, xc, xc_dd }
     }

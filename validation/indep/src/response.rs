@@ -246,8 +246,9 @@ fn solve3(mut m: [[f64; 3]; 3], mut b: [f64; 3]) -> [f64; 3] {
         }
         for r in c + 1..3 {
             let f = m[r][c] / piv;
-            for k in c..3 {
-                m[r][k] -= f * m[c][k];
+            let pivot_row = m[c];
+            for (dst, src) in m[r][c..].iter_mut().zip(&pivot_row[c..]) {
+                *dst -= f * src;
             }
             b[r] -= f * b[c];
         }

@@ -158,7 +158,6 @@ impl FromStr for Scenario {
             None if s == "clean" => Scenario::Clean,
             None if s == "random" => Scenario::Random,
             Some((kind, list)) => {
-                let v = parse_list(list)?;
                 let want = match kind {
                     "single" => Some(1),
                     "pair" => Some(2),
@@ -166,6 +165,7 @@ impl FromStr for Scenario {
                     "outside" => None,
                     _ => return Err(format!("unknown scenario kind `{kind}` in `{s}`")),
                 };
+                let v = parse_list(list)?;
                 match want {
                     Some(n) if v.len() != n => {
                         return Err(format!("`{kind}` takes {n} effect(s), got {} in `{s}`", v.len()))
