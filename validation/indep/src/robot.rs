@@ -547,6 +547,22 @@ impl Robot {
                         return Err(format!("cross_coupling.{w} must lie in (-1, 1), got {v}"));
                     }
                 }
+                // The two joints' loads are solved together; the loop gain κ_xy κ_yx / (L_x L_y)
+                // (L the load share behind a transmission) must stay well below 1.
+                let load = |a: &AxisMechanics| {
+                    if a.transmission.is_some() {
+                        1.0 - a.drive_mass_fraction
+                    } else {
+                        1.0
+                    }
+                };
+                let gain =
+                    (kappa_xy * kappa_yx).abs() / (load(&self.axes[0]) * load(&self.axes[1]));
+                if gain >= 0.5 {
+                    return Err(format!(
+                        "cross_coupling: kappa_xy * kappa_yx / (load_x * load_y) = {gain} must stay below 0.5"
+                    ));
+                }
             }
             None => {}
         }
