@@ -146,14 +146,20 @@ fn draw_base(rng: &mut ChaCha8Rng, design: &Design) -> Robot {
             p.b[i][j] = seed.b[i][j] * rng.gen_range(1.0 - spread..1.0 + spread);
         }
     }
+    // One tracking low-pass for both axes, as the seed's H11 = H12 = H21 = H22 (§6.3): a
+    // clean robot must be one the seed's model structure explains.
+    // One acceleration limit too: the seed speaks of "the system's maximum acceleration".
+    let omega_n = rng.gen_range(22.0..40.0);
+    let zeta = rng.gen_range(0.75..1.1);
+    let limit_factor = log_uniform(rng, 0.6, 1.5);
     let mut axis = || {
         let mut servo = Servo {
-            omega_n: rng.gen_range(22.0..40.0),
-            zeta: rng.gen_range(0.75..1.1),
+            omega_n,
+            zeta,
             accel_limit: 1.0,
             velocity_limit: None,
         };
-        servo.accel_limit = demand(&servo, design, 2) * log_uniform(rng, 0.6, 1.5);
+        servo.accel_limit = demand(&servo, design, 2) * limit_factor;
         AxisMechanics {
             servo,
             command_delay: 0.0,
@@ -284,10 +290,7 @@ fn draw_effect(
         }
         Effect::AccelerationSaturation => {
             let factor = log_at(0.5, 0.25, q);
-            EffectParams::AccelLimit([0, 1].map(|k| {
-                let f = (factor * rng.gen_range(0.9..1.1)).clamp(0.25, 0.5);
-                demand(servo(k), design, 2) * f
-            }))
+            EffectParams::AccelLimit([0, 1].map(|k| demand(servo(k), design, 2) * factor))
         }
         Effect::RateLimitedServo => {
             let factor = log_at(0.85, 0.4, q);
