@@ -4,6 +4,7 @@
 
 pub mod design;
 pub mod draw;
+pub mod effect;
 pub mod integrate;
 mod mechanics;
 mod noise;
