@@ -40,11 +40,49 @@ pub fn draw(seed: u64, scenario: &Scenario) -> Robot {
     draw_for_design(seed, scenario, &Design::default())
 }
 
+/// The form of a drawn `cross_coupling`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CouplingForm {
+    /// Extra off-diagonal pendulum terms `Δa − Δb s²`.
+    Pendulum,
+    /// Inertial load of each joint by the other axis's CoM acceleration.
+    Inertial,
+}
+
+impl std::str::FromStr for CouplingForm {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "pendulum" => Ok(CouplingForm::Pendulum),
+            "inertial" => Ok(CouplingForm::Inertial),
+            _ => Err(format!(
+                "unknown coupling form `{s}`: use pendulum or inertial"
+            )),
+        }
+    }
+}
+
+/// Choices `draw_with` leaves to the caller.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DrawOptions {
+    /// Form of a `cross_coupling` effect; `None`: drawn, each form with probability 1/2.
+    pub coupling_form: Option<CouplingForm>,
+}
+
 /// Draws a robot for the scenario, with its saturation and effect sizes set for `design`.
 ///
 /// # Panics
 /// If the scenario or the design is invalid (`Scenario::validate`, `Design::validate`).
 pub fn draw_for_design(seed: u64, scenario: &Scenario, design: &Design) -> Robot {
+    draw_with(seed, scenario, design, &DrawOptions::default())
+}
+
+/// [`draw_for_design`] with options (every other parameter is drawn as without them).
+///
+/// # Panics
+/// If the scenario or the design is invalid (`Scenario::validate`, `Design::validate`).
+pub fn draw_with(seed: u64, scenario: &Scenario, design: &Design, options: &DrawOptions) -> Robot {
     scenario
         .validate()
         .unwrap_or_else(|e| panic!("draw: scenario: {e}"));
@@ -66,7 +104,7 @@ pub fn draw_for_design(seed: u64, scenario: &Scenario, design: &Design) -> Robot
             } else {
                 rng.gen_range(q_lo..=1.0)
             };
-            let params = draw_effect(effect, &base, design, &mut rng, q);
+            let params = draw_effect(effect, &base, design, options, &mut rng, q);
             let mut candidate = base.clone();
             params.install(&mut candidate);
             let vis = visibility(effect, &base, &candidate, design, &mut probe_cache);
@@ -243,6 +281,7 @@ fn draw_effect(
     effect: Effect,
     base: &Robot,
     design: &Design,
+    options: &DrawOptions,
     rng: &mut ChaCha8Rng,
     q: f64,
 ) -> EffectParams {
@@ -370,7 +409,12 @@ fn draw_effect(
             EffectParams::Drift(pair_swapped(rng, first, second))
         }
         Effect::CrossCoupling => {
-            if rng.gen_bool(0.5) {
+            let drawn = rng.gen_bool(0.5);
+            let pendulum = match options.coupling_form {
+                Some(form) => form == CouplingForm::Pendulum,
+                None => drawn,
+            };
+            if pendulum {
                 let mut term =
                     |lo: f64, hi: f64| sign(rng) * log_at(lo, hi, q) * rng.gen_range(0.7..1.0);
                 EffectParams::Coupling(CrossCoupling::Pendulum {

@@ -14,7 +14,7 @@ pub mod scenario;
 pub mod write;
 
 pub use design::{AxisName, Design, RecordSpec};
-pub use draw::{draw, draw_for_design, Visibility};
+pub use draw::{draw, draw_for_design, draw_with, CouplingForm, DrawOptions, Visibility};
 pub use integrate::{simulate, simulate_records, try_simulate, RecordData, RecordTruth};
 pub use robot::{
     AxisMechanics, CrossCoupling, Effect, FlexibleMode, Friction, HiddenEffect, Noise,

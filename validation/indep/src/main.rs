@@ -3,7 +3,7 @@
 use anyhow::{Context, Result};
 use clap::Parser;
 use std::path::PathBuf;
-use zmp_indep_sim::{draw_for_design, write, Design, Scenario};
+use zmp_indep_sim::{draw_with, write, CouplingForm, Design, DrawOptions, Scenario};
 
 /// Independent simulator of the seed's full ZMP robot (Caballero et al. 2006) with hidden
 /// physical effects, for out-of-sample tests of identification and diagnosis tools.
@@ -51,6 +51,11 @@ struct Cli {
     /// x 9 frequencies = 108 records at 200 Hz.
     #[arg(long)]
     design: Option<PathBuf>,
+
+    /// Form of a drawn cross_coupling effect: `pendulum` (extra off-diagonal a - b s² terms)
+    /// or `inertial` (each joint loaded by the other axis's CoM acceleration). Default: drawn.
+    #[arg(long)]
+    coupling_form: Option<CouplingForm>,
 
     /// Print a JSON summary on standard output: campaign folder, record count, truth file,
     /// seconds spent simulating and writing (never the hidden effects: read --truth for them).
@@ -103,7 +108,10 @@ fn run(cli: Cli) -> Result<()> {
             );
         }
     }
-    let robot = draw_for_design(cli.seed, &scenario, &design);
+    let options = DrawOptions {
+        coupling_form: cli.coupling_form,
+    };
+    let robot = draw_with(cli.seed, &scenario, &design, &options);
     let started = std::time::Instant::now();
     write::write_campaign(&robot, &design, &cli.out, cli.force)?;
     let seconds = started.elapsed().as_secs_f64();

@@ -303,3 +303,38 @@ fn an_effect_the_design_cannot_show_is_reported_invisible() {
     );
     assert!(!r.hidden[0].visible, "{:?}", r.hidden[0]);
 }
+
+#[test]
+fn the_coupling_form_can_be_chosen() {
+    use zmp_indep_sim::{draw_with, CouplingForm, DrawOptions};
+    let s: Scenario = "single:cross_coupling".parse().unwrap();
+    let d = Design::default();
+    for seed in 0..4 {
+        let inertial = draw_with(
+            seed,
+            &s,
+            &d,
+            &DrawOptions {
+                coupling_form: Some(CouplingForm::Inertial),
+            },
+        );
+        let pendulum = draw_with(
+            seed,
+            &s,
+            &d,
+            &DrawOptions {
+                coupling_form: Some(CouplingForm::Pendulum),
+            },
+        );
+        assert!(matches!(
+            inertial.cross_coupling,
+            Some(CrossCoupling::Inertial { .. })
+        ));
+        assert!(matches!(
+            pendulum.cross_coupling,
+            Some(CrossCoupling::Pendulum { .. })
+        ));
+        assert!(inertial.hidden[0].visible && pendulum.hidden[0].visible);
+        assert_eq!(inertial.pendulum, pendulum.pendulum);
+    }
+}
