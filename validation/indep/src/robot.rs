@@ -1,0 +1,502 @@
+//! The robot: every truth parameter of one simulated biped, serialisable to JSON and TOML.
+//!
+//! Coordinates: the CoM displacement that the trunk produces, in metres, per input axis
+//! (x lateral, y sagittal, as in the seed). Every mechanical body of an axis is described in
+//! these "CoM-equivalent" coordinates, and every force is a *specific* force: force divided by
+//! the axis's total moving inertia (drive + trunk), in m/s². With that normalisation the servo
+//! gains need no mass, and an acceleration limit is a force limit.
+
+pub use crate::effect::Effect;
+use serde::{Deserialize, Serialize};
+
+/// The equivalent inverted pendulum of the seed (eqs. 22-24): `zmp_i = Σ_j a_ij x_cj − b_ij x_cj''`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pendulum {
+    /// `a[i][j]`: static gain from CoM axis j to ZMP axis i (m/m). Index 0 = x, 1 = y.
+    pub a: [[f64; 2]; 2],
+    /// `b[i][j]`: gain from CoM acceleration of axis j to ZMP axis i (s²).
+    pub b: [[f64; 2]; 2],
+}
+
+impl Pendulum {
+    /// The SILO2 values of the seed, section 6.2.
+    pub fn silo2() -> Self {
+        Pendulum {
+            a: [[0.8293, 0.07455], [0.1895, 1.245]],
+            b: [[0.2767, 0.005428], [0.09979, 0.1012]],
+        }
+    }
+}
+
+/// The position servo of one axis: a cascade of a proportional position loop, a proportional
+/// velocity loop and a force (current) limit, acting on the drive body.
+///
+/// `v_ref = clamp(Kp (r − p), ±velocity_limit)`, `F = clamp(Kv (v_ref − v), ±accel_limit)` with
+/// `Kp = ωn/(2ζ)`, `Kv = 2ζωn`, so that unsaturated and on a rigid load
+/// `p/r = ωn²/(s² + 2ζωn s + ωn²)`, the seed's tracking low-pass (section 6.3).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Servo {
+    /// Natural frequency of the closed position loop, rad/s.
+    pub omega_n: f64,
+    /// Damping ratio of the closed position loop, 1.
+    pub zeta: f64,
+    /// Actuator force limit divided by the axis's total moving inertia, m/s² (the seed's
+    /// acceleration saturation: a rigid axis never accelerates faster than this).
+    pub accel_limit: f64,
+    /// Clamp on the velocity loop's reference, m/s (`rate_limited_servo`); `None`: no limit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub velocity_limit: Option<f64>,
+}
+
+/// A compliant transmission between the drive and the trunk joint body, optionally with play
+/// (`backlash`) and a hardening spring (`cubic_stiffness`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Transmission {
+    /// Total width of the play, m (0: no play). No force is transmitted while the relative
+    /// position of drive and trunk lies within `±play/2`.
+    pub play: f64,
+    /// Natural frequency of the load on the transmission with the drive clamped and the load
+    /// taken as rigid, at small deflection, rad/s (stiffness `k = omega² · load mass`).
+    pub omega: f64,
+    /// Damping ratio of the same oscillator, 1 (damping `c = 2 zeta omega · load mass`).
+    pub zeta: f64,
+    /// Deflection at which the hardening spring is twice as stiff as at zero, m:
+    /// `F = k e (1 + (e/hardening_deflection)²)`. `None`: a linear spring.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hardening_deflection: Option<f64>,
+    /// Viscous drag of the trunk joint (bearings, seals), as the time in which it would slow
+    /// the free trunk by a factor e, s: force `−m_J v_J / load_drag_time` on the joint body.
+    /// Drawn with the play so that the trunk, once disengaged, settles in the gap instead of
+    /// rattling between the flanks for ever. `None`: no drag.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load_drag_time: Option<f64>,
+}
+
+/// Friction on the trunk joint (body J), a true stick-slip law.
+///
+/// Sliding: `F = −sign(v) (kinetic + (static_level − kinetic) exp(−(v/v_s)²))`. Sticking
+/// (`v = 0`): the joint holds while the other forces on it stay within `±static_level`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Friction {
+    /// Kinetic (Coulomb) level, m/s² (specific force).
+    pub kinetic: f64,
+    /// Static (break-away) level, m/s²; equal to `kinetic` for pure Coulomb friction.
+    pub static_level: f64,
+    /// Stribeck velocity `v_s`, m/s; `None` for pure Coulomb friction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stribeck_velocity: Option<f64>,
+}
+
+/// A flexible link carrying part of the trunk: a spring-damper between the inner body and an
+/// outboard mass.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FlexibleMode {
+    /// Natural frequency of the outboard mass on this link with the inner body clamped, rad/s.
+    pub omega: f64,
+    /// Damping ratio of the same oscillator, 1.
+    pub zeta: f64,
+    /// Fraction of the inner body's load that sits outboard of this link, 1 (first link: of
+    /// the trunk; second link: of the first outboard mass).
+    pub mass_fraction: f64,
+}
+
+/// The mechanics of one input axis: latency, servo, drive, transmission, joint, trunk.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AxisMechanics {
+    /// The position servo.
+    pub servo: Servo,
+    /// Latency between the reference and the servo, s (`time_delay`; 0 = none).
+    #[serde(default)]
+    pub command_delay: f64,
+    /// Share of the axis's total moving inertia that is the drive (reflected motor inertia),
+    /// 1. Matters only when a transmission separates drive and trunk.
+    pub drive_mass_fraction: f64,
+    /// Compliant transmission between drive and trunk; `None`: rigid.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transmission: Option<Transmission>,
+    /// Friction on the trunk joint; `None`: frictionless.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<Friction>,
+    /// Flexible links of the trunk, innermost first (0, 1 or 2).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub modes: Vec<FlexibleMode>,
+}
+
+/// Coupling between the planes beyond the base pendulum's off-diagonal terms.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "form", rename_all = "snake_case")]
+pub enum CrossCoupling {
+    /// Extra off-diagonal pendulum terms, added to `a12, a21` (1) and `b12, b21` (s²).
+    Pendulum {
+        /// Added to `a12`.
+        da12: f64,
+        /// Added to `a21`.
+        da21: f64,
+        /// Added to `b12`.
+        db12: f64,
+        /// Added to `b21`.
+        db21: f64,
+    },
+    /// Inertial coupling through non-orthogonal joint axes (or a product of inertia of the
+    /// trunk): the trunk's inertial force along axis j loads the joint of axis i with
+    /// `−kappa_ij · x_cj''` (specific force, with the actual accelerations of both axes, solved
+    /// simultaneously), which axis i's servo rejects with its own compliance. Zero at DC,
+    /// growing like `ω²` through the servo's disturbance response: unlike the pendulum form.
+    Inertial {
+        /// Load on the x joint per unit y CoM acceleration, 1.
+        kappa_xy: f64,
+        /// Load on the y joint per unit x CoM acceleration, 1.
+        kappa_yx: f64,
+    },
+}
+
+/// Pendulum gains that change with the CoM position: `a_ij(x_c) = a_ij (1 + a_slope·x_c)`,
+/// `b_ij(x_c) = b_ij (1 + b_slope·x_c)`, evaluated at the instantaneous absolute CoM.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OpDependence {
+    /// Relative change of every `a_ij` per metre of CoM along x and y, 1/m.
+    pub a_slope: [f64; 2],
+    /// Relative change of every `b_ij` (the pendulum height) per metre along x and y, 1/m.
+    pub b_slope: [f64; 2],
+}
+
+/// Random measurement noise of the force-sensor ZMP, the same law on both axes, independent
+/// realisations.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Noise {
+    /// Standard deviation of the white part, m.
+    pub white_std: f64,
+    /// Stationary standard deviation of the coloured (first-order, AR(1)) part, m.
+    pub coloured_std: f64,
+    /// Correlation time of the coloured part, s.
+    pub coloured_tau: f64,
+}
+
+impl Noise {
+    /// No noise at all.
+    pub fn zero() -> Self {
+        Noise {
+            white_std: 0.0,
+            coloured_std: 0.0,
+            coloured_tau: 1.0,
+        }
+    }
+}
+
+/// The force-sensor ZMP measurement.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Sensor {
+    /// First-order low-pass cutoff per output axis (x, y), rad/s (`sensor_lowpass`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lowpass_cutoff: Option<[f64; 2]>,
+    /// Linear drift of the reading per output axis, m/s, starting from zero at the start of
+    /// each record (`sensor_drift`).
+    #[serde(default)]
+    pub drift_rate: [f64; 2],
+    /// Random noise.
+    pub noise: Noise,
+}
+
+/// One hidden effect of a drawn robot, with what a test needs to score a verdict.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HiddenEffect {
+    /// Which effect.
+    pub effect: Effect,
+    /// Its name (`effect.name()`), repeated for readers of the JSON.
+    pub name: String,
+    /// Whether the project's catalogue names it.
+    pub in_catalogue: bool,
+    /// For an out-of-catalogue effect, the closest catalogue effect.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nearest_catalogue: Option<String>,
+    /// Whether it passed the visibility test of `draw` on the design it was drawn for.
+    pub visible: bool,
+    /// Largest first-harmonic change of a record, in first-harmonic noise std.
+    pub max_sigmas: f64,
+    /// Largest first-harmonic change of a record relative to the response without the effect.
+    pub max_relative: f64,
+    /// Records of the design whose first harmonic the effect changes visibly.
+    pub records_visible: usize,
+}
+
+/// Every truth parameter of one simulated robot.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Robot {
+    /// Free text.
+    pub name: String,
+    /// The scenario it was drawn for (free text, e.g. `pair:time_delay,backlash`).
+    #[serde(default)]
+    pub scenario: String,
+    /// The seed of `draw`, if drawn.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// The base pendulum (seed eq. 24) including its off-diagonal terms.
+    pub pendulum: Pendulum,
+    /// Mechanics of the x axis (index 0) and the y axis (index 1).
+    pub axes: [AxisMechanics; 2],
+    /// Coupling beyond the base pendulum.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cross_coupling: Option<CrossCoupling>,
+    /// Dependence of the pendulum on the CoM position.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub op_dependence: Option<OpDependence>,
+    /// The ZMP sensor.
+    pub sensor: Sensor,
+    /// The hidden effects (what the seed's model lacks).
+    #[serde(default)]
+    pub hidden: Vec<HiddenEffect>,
+}
+
+impl Robot {
+    /// The seed's nominal SILO2: pendulum of section 6.2, `ωn = 30`, `ζ = 1` on both axes,
+    /// an actuator limit of 1000 m/s² (never reached by a stepped sine of a few mm), no
+    /// hidden effect, 0.5 mm white noise.
+    pub fn seed_nominal() -> Self {
+        let axis = AxisMechanics {
+            servo: Servo {
+                omega_n: 30.0,
+                zeta: 1.0,
+                accel_limit: 1000.0,
+                velocity_limit: None,
+            },
+            command_delay: 0.0,
+            drive_mass_fraction: 0.3,
+            transmission: None,
+            friction: None,
+            modes: Vec::new(),
+        };
+        Robot {
+            name: "SILO2 (seed, section 6)".into(),
+            scenario: "clean".into(),
+            seed: None,
+            pendulum: Pendulum::silo2(),
+            axes: [axis.clone(), axis],
+            cross_coupling: None,
+            op_dependence: None,
+            sensor: Sensor {
+                lowpass_cutoff: None,
+                drift_rate: [0.0; 2],
+                noise: Noise {
+                    white_std: 5e-4,
+                    coloured_std: 0.0,
+                    coloured_tau: 0.5,
+                },
+            },
+            hidden: Vec::new(),
+        }
+    }
+
+    /// The pendulum the ZMP map uses: the base plus a pendulum-form cross-coupling.
+    pub fn effective_pendulum(&self) -> Pendulum {
+        let mut p = self.pendulum.clone();
+        if let Some(CrossCoupling::Pendulum {
+            da12,
+            da21,
+            db12,
+            db21,
+        }) = self.cross_coupling
+        {
+            p.a[0][1] += da12;
+            p.a[1][0] += da21;
+            p.b[0][1] += db12;
+            p.b[1][0] += db21;
+        }
+        p
+    }
+
+    /// The catalogue names of the hidden effects (in the order they were drawn).
+    pub fn hidden_names(&self) -> Vec<&'static str> {
+        self.hidden.iter().map(|h| h.effect.name()).collect()
+    }
+
+    /// Whether any hidden effect lies outside the project's catalogue.
+    pub fn has_outside_effect(&self) -> bool {
+        self.hidden.iter().any(|h| !h.in_catalogue)
+    }
+
+    /// Checks every parameter's sign and range; the message names the field.
+    pub fn validate(&self) -> Result<(), String> {
+        let finite = |v: f64, what: &str| {
+            if v.is_finite() {
+                Ok(())
+            } else {
+                Err(format!("{what} must be finite, got {v}"))
+            }
+        };
+        let positive = |v: f64, what: &str| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{what} must be positive and finite, got {v}"))
+            }
+        };
+        for i in 0..2 {
+            for j in 0..2 {
+                finite(self.pendulum.a[i][j], &format!("pendulum.a[{i}][{j}]"))?;
+                finite(self.pendulum.b[i][j], &format!("pendulum.b[{i}][{j}]"))?;
+            }
+        }
+        for (k, axis) in self.axes.iter().enumerate() {
+            let n = ["x", "y"][k];
+            positive(axis.servo.omega_n, &format!("axes.{n}.servo.omega_n"))?;
+            positive(axis.servo.zeta, &format!("axes.{n}.servo.zeta"))?;
+            positive(
+                axis.servo.accel_limit,
+                &format!("axes.{n}.servo.accel_limit"),
+            )?;
+            if let Some(v) = axis.servo.velocity_limit {
+                positive(v, &format!("axes.{n}.servo.velocity_limit"))?;
+            }
+            if !(axis.command_delay.is_finite() && axis.command_delay >= 0.0) {
+                return Err(format!(
+                    "axes.{n}.command_delay must be >= 0, got {}",
+                    axis.command_delay
+                ));
+            }
+            let mu = axis.drive_mass_fraction;
+            if !(mu > 0.0 && mu < 1.0) {
+                return Err(format!(
+                    "axes.{n}.drive_mass_fraction must lie in (0, 1), got {mu}"
+                ));
+            }
+            if let Some(t) = &axis.transmission {
+                if !(t.play.is_finite() && t.play >= 0.0) {
+                    return Err(format!(
+                        "axes.{n}.transmission.play must be >= 0, got {}",
+                        t.play
+                    ));
+                }
+                positive(t.omega, &format!("axes.{n}.transmission.omega"))?;
+                positive(t.zeta, &format!("axes.{n}.transmission.zeta"))?;
+                if let Some(d) = t.hardening_deflection {
+                    positive(d, &format!("axes.{n}.transmission.hardening_deflection"))?;
+                }
+                if let Some(d) = t.load_drag_time {
+                    positive(d, &format!("axes.{n}.transmission.load_drag_time"))?;
+                }
+            }
+            if let Some(f) = &axis.friction {
+                positive(f.kinetic, &format!("axes.{n}.friction.kinetic"))?;
+                if !(f.static_level.is_finite() && f.static_level >= f.kinetic) {
+                    return Err(format!(
+                        "axes.{n}.friction.static_level must be >= kinetic ({}), got {}",
+                        f.kinetic, f.static_level
+                    ));
+                }
+                if let Some(v) = f.stribeck_velocity {
+                    positive(v, &format!("axes.{n}.friction.stribeck_velocity"))?;
+                }
+            }
+            if axis.modes.len() > 2 {
+                return Err(format!(
+                    "axes.{n}.modes: at most 2 flexible links, got {}",
+                    axis.modes.len()
+                ));
+            }
+            for (m, mode) in axis.modes.iter().enumerate() {
+                positive(mode.omega, &format!("axes.{n}.modes[{m}].omega"))?;
+                positive(mode.zeta, &format!("axes.{n}.modes[{m}].zeta"))?;
+                if !(mode.mass_fraction > 0.0 && mode.mass_fraction < 1.0) {
+                    return Err(format!(
+                        "axes.{n}.modes[{m}].mass_fraction must lie in (0, 1), got {}",
+                        mode.mass_fraction
+                    ));
+                }
+            }
+        }
+        match &self.cross_coupling {
+            Some(CrossCoupling::Pendulum {
+                da12,
+                da21,
+                db12,
+                db21,
+            }) => {
+                for (v, w) in [
+                    (da12, "da12"),
+                    (da21, "da21"),
+                    (db12, "db12"),
+                    (db21, "db21"),
+                ] {
+                    finite(*v, &format!("cross_coupling.{w}"))?;
+                }
+            }
+            Some(CrossCoupling::Inertial { kappa_xy, kappa_yx }) => {
+                for (v, w) in [(kappa_xy, "kappa_xy"), (kappa_yx, "kappa_yx")] {
+                    if !(v.is_finite() && v.abs() < 1.0) {
+                        return Err(format!("cross_coupling.{w} must lie in (-1, 1), got {v}"));
+                    }
+                }
+                // The two joints' loads are solved together; the loop gain κ_xy κ_yx / (L_x L_y)
+                // (L the load share behind a transmission) must stay well below 1.
+                let load = |a: &AxisMechanics| {
+                    if a.transmission.is_some() {
+                        1.0 - a.drive_mass_fraction
+                    } else {
+                        1.0
+                    }
+                };
+                let gain =
+                    (kappa_xy * kappa_yx).abs() / (load(&self.axes[0]) * load(&self.axes[1]));
+                if gain >= 0.5 {
+                    return Err(format!(
+                        "cross_coupling: kappa_xy * kappa_yx / (load_x * load_y) = {gain} must stay below 0.5"
+                    ));
+                }
+            }
+            None => {}
+        }
+        if let Some(op) = &self.op_dependence {
+            for k in 0..2 {
+                finite(op.a_slope[k], &format!("op_dependence.a_slope[{k}]"))?;
+                finite(op.b_slope[k], &format!("op_dependence.b_slope[{k}]"))?;
+            }
+        }
+        if let Some(c) = self.sensor.lowpass_cutoff {
+            positive(c[0], "sensor.lowpass_cutoff[0]")?;
+            positive(c[1], "sensor.lowpass_cutoff[1]")?;
+        }
+        finite(self.sensor.drift_rate[0], "sensor.drift_rate[0]")?;
+        finite(self.sensor.drift_rate[1], "sensor.drift_rate[1]")?;
+        validate_noise(&self.sensor.noise, "sensor.noise")
+    }
+
+    /// Pretty JSON of every truth parameter.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a robot always serialises")
+    }
+
+    /// Reads `to_json`'s output (and validates it).
+    pub fn from_json(text: &str) -> Result<Self, String> {
+        let r: Robot = serde_json::from_str(text).map_err(|e| format!("robot JSON: {e}"))?;
+        r.validate()?;
+        Ok(r)
+    }
+
+    /// TOML of every truth parameter.
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).expect("a robot always serialises")
+    }
+
+    /// Reads `to_toml`'s output (and validates it).
+    pub fn from_toml(text: &str) -> Result<Self, String> {
+        let r: Robot = toml::from_str(text).map_err(|e| format!("robot TOML: {e}"))?;
+        r.validate()?;
+        Ok(r)
+    }
+}
+
+/// Checks a noise law; the message names the field under `what`.
+pub(crate) fn validate_noise(n: &Noise, what: &str) -> Result<(), String> {
+    for (v, f) in [(n.white_std, "white_std"), (n.coloured_std, "coloured_std")] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(format!("{what}.{f} must be >= 0, got {v}"));
+        }
+    }
+    if !(n.coloured_tau.is_finite() && n.coloured_tau > 0.0) {
+        return Err(format!(
+            "{what}.coloured_tau must be positive, got {}",
+            n.coloured_tau
+        ));
+    }
+    Ok(())
+}
