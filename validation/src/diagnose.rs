@@ -9,6 +9,7 @@ pub mod candidates;
 pub mod cells;
 pub mod engine;
 pub mod evidence;
+pub mod iterate;
 pub mod lm;
 pub mod measure;
 pub mod observe;

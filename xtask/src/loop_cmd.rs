@@ -6,20 +6,15 @@
 
 use crate::diagnose::{augmented_path, history_cmd, history_plot, read};
 use crate::simulate::{load_model, progress_bar};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use std::path::{Path, PathBuf};
 use zmp_validation::campaign::Campaign;
-use zmp_validation::diagnose::augment::augmented_from_diagnosis;
+use zmp_validation::diagnose::iterate::MAX_ROUNDS;
 use zmp_validation::diagnose::observe::Observation;
 use zmp_validation::diagnose::report::write_diagnosis_report;
-use zmp_validation::diagnose::run::{diagnose_observations, observations_of};
-use zmp_validation::diagnose::select::MAX_EFFECTS;
-use zmp_validation::diagnose::{DiagnoseOptions, Diagnosis};
-use zmp_validation::identify::{identify_with_progress, write_model, IdentifyOptions};
+use zmp_validation::diagnose::DiagnoseOptions;
+use zmp_validation::identify::{write_model, IdentifyOptions};
 use zmp_validation::ledger;
-
-/// Diagnosis rounds at most (each may add several effects).
-const MAX_ROUNDS: usize = 3;
 
 /// What `cargo xtask loop` was asked.
 pub struct LoopArgs<'a> {
@@ -70,11 +65,6 @@ fn options(campaign: &Path, model: &Path) -> DiagnoseOptions {
     }
 }
 
-fn error_of(spec: &zmp_models::ModelSpec, obs: &[&Observation]) -> Result<(f64, f64)> {
-    let s = zmp_validation::diagnose::engine::evaluate(spec, obs)?;
-    Ok(zmp_validation::diagnose::measure::aggregate(&s))
-}
-
 /// `cargo xtask loop`.
 pub fn loop_cmd(a: &LoopArgs) -> Result<LoopSummary> {
     let camp = read(a.campaign, a.json)?;
@@ -85,6 +75,9 @@ pub fn loop_cmd(a: &LoopArgs) -> Result<LoopSummary> {
     Ok(summary)
 }
 
+/// Marker of a loop output folder.
+pub const LOOP_MARKER: &str = ".zmp-loop-output";
+
 /// The loop on a campaign already read; `quiet` hides the narration (not the waterfall
 /// table unless `a.json`).
 pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummary> {
@@ -94,168 +87,111 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         }
     };
     let out = a.out;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    // The output folder is claimed before any work: only a folder the loop wrote is replaced.
+    zmp_validation::io::claim_dir(out, LOOP_MARKER, a.force, "loop output")?;
     let identified = out.join("identified.toml");
-    // Output paths are checked before any work.
-    if !a.force && identified.exists() {
-        anyhow::bail!(
-            "{} exists; pass --force to replace the loop's earlier output there",
-            identified.display()
-        );
-    }
-    // 1. Identify: the seed's structure (or the given model's), the acceleration limit in
-    //    the model when the data show one.
     let start = a.model.map(load_model).transpose()?;
+    let dopts = options(a.campaign, &identified);
     let iopts = IdentifyOptions {
         campaign_path: Some(a.campaign.to_path_buf()),
-        include_saturation: true,
-        start_model: start,
         ..IdentifyOptions::default()
     };
-    let pb = progress_bar(camp.records.len() as u64, "identifying", quiet);
-    let ident = identify_with_progress(camp, &iopts, &|d| pb.set_position(d as u64))?;
+    let pb = progress_bar(1 + 2 * MAX_ROUNDS as u64, "identifying", quiet);
+    let r = zmp_validation::diagnose::iterate::run_loop(camp, start, &iopts, &dopts, &|what| {
+        pb.set_message(what.to_string());
+        if what == "diagnosing" || what.starts_with("adding") {
+            pb.inc(1);
+        }
+    })?;
     pb.finish_and_clear();
-    write_model(&ident, &identified, a.force)?;
-    for w in &ident.warnings {
+    for w in &r.identification.warnings {
         say(&format!("   identify: {w}"));
     }
-    // The identification's own record analyses are the diagnosis's observations.
-    let (observations, skipped) = observations_of(&ident.records);
-    let obs: Vec<&Observation> = observations.iter().collect();
+    // The files: the identified model, each version, the ledger, the reports.
+    write_model(&r.identification, &identified, true)?;
     let cname = a.campaign.display().to_string();
-    let (e0, floor) = error_of(&ident.model, &obs)?;
-    ledger::append(&identified, None, "identified", &cname, e0, floor)?;
+    ledger::append(&identified, None, "identified", &cname, r.identified_error, r.noise_floor)?;
     say(&format!(
-        "identified {} ({} records): error {e0:.4} = {:.1}x the noise floor",
+        "identified {} ({} records): error {:.4} = {:.1}x the noise floor",
         identified.display(),
-        obs.len(),
-        e0 / floor
+        r.observations.len(),
+        r.identified_error,
+        r.identified_error / r.noise_floor
     ));
     let mut versions = vec![Version {
         model: identified.clone(),
         change: "identified".into(),
-        error: e0,
-        noise_floor: floor,
+        error: r.identified_error,
+        noise_floor: r.noise_floor,
     }];
-    let mut current_path = identified.clone();
-    let mut current = ident.model.clone();
-    let mut found: Vec<String> = Vec::new();
     let mut reports = Vec::new();
-    let mut verdict = String::new();
-    let mut last: Option<Diagnosis> = None;
-    for round in 0..MAX_ROUNDS {
-        let dopts = options(a.campaign, &current_path);
-        let pb = progress_bar(
-            (2 + zmp_validation::diagnose::candidates::CATALOGUE.len()) as u64,
-            &format!("diagnosing {}", file_name(&current_path)),
-            quiet,
-        );
-        let d = diagnose_observations(
-            observations.clone(),
-            skipped.clone(),
-            &current,
-            &dopts,
-            &|what| {
-                pb.set_message(what.to_string());
-                pb.inc(1);
-            },
-        )?;
-        pb.finish_and_clear();
-        if round == 0 {
-            verdict = d.verdict.clone();
-            let dir = out.join("diagnosis");
-            reports.push(write_diagnosis_report(camp, &d, &dir, a.force)?);
-        }
+    for (k, d) in r.diagnoses.iter().enumerate() {
+        let dir = if k == 0 {
+            out.join("diagnosis")
+        } else {
+            out.join(format!("diagnosis-{}", k + 1))
+        };
+        zmp_validation::io::claim_dir(&dir, zmp_validation::io::REPORT_MARKER, true, "report")?;
+        reports.push(write_diagnosis_report(camp, d, &dir, true)?);
         say(&format!(
-            "diagnosis of {}: verdict {}{}",
-            file_name(&current_path),
+            "diagnosis {}: verdict {}{}",
+            k + 1,
             d.verdict,
             if d.explained { " (explained)" } else { "" }
         ));
         for f in d.findings.iter().filter(|f| f.significant) {
             say(&format!("   - {}: {}", f.effect, f.evidence));
         }
-        // The diagnosis's path: each step's model, fitted on every record, becomes a version
-        // (a pair found together is one version with both).
-        let pairs: Vec<(Vec<String>, zmp_validation::diagnose::engine::Fitted)> = d
-            .path
-            .iter()
-            .filter(|(added, _)| added.iter().all(|e| !found.contains(e)))
-            .cloned()
-            .collect();
-        let stop = pairs.is_empty() || found.len() >= MAX_EFFECTS;
-        last = Some(d);
-        if stop {
-            break;
-        }
-        for (added, fitted) in pairs {
-            if found.len() + added.len() > MAX_EFFECTS {
-                break;
-            }
-            let dopts = options(a.campaign, &current_path);
-            let label = added.join("+");
-            let pb = progress_bar(1, &format!("fitting +{label}"), quiet);
-            let aug = augmented_from_diagnosis(&obs, &current, &fitted, &label, &dopts)?;
-            pb.finish_and_clear();
-            let next = augmented_path(&current_path, &label);
-            zmp_validation::io::atomic_write(&next, aug.spec.to_toml().as_bytes(), a.force)?;
-            ledger::append(
-                &next,
-                Some(&current_path),
-                &aug.change,
-                &cname,
-                aug.error_after,
-                aug.noise_floor,
-            )?;
-            say(&format!(
-                "   + {label}: error {:.4} -> {:.4} ({:.1}x the floor) -> {}",
-                aug.error_before,
-                aug.error_after,
-                aug.error_after / aug.noise_floor,
-                next.display()
-            ));
-            versions.push(Version {
-                model: next.clone(),
-                change: aug.change.clone(),
-                error: aug.error_after,
-                noise_floor: aug.noise_floor,
-            });
-            found.extend(added);
-            current = aug.spec;
-            current_path = next;
-        }
     }
-    let last = last.expect("at least one diagnosis round");
-    // The last model's own standing (the last diagnosis may have been of an earlier one).
-    let final_preds = zmp_validation::diagnose::measure::predict(&current, &obs)?;
-    let explained = zmp_validation::diagnose::run::explains(&obs, &final_preds);
+    let mut current_path = identified.clone();
+    for (added, aug) in &r.versions {
+        let label = added.join("+");
+        let next = augmented_path(&current_path, &label);
+        zmp_validation::io::atomic_write(&next, aug.spec.to_toml().as_bytes(), true)?;
+        ledger::append(
+            &next,
+            Some(&current_path),
+            &aug.change,
+            &cname,
+            aug.error_after,
+            aug.noise_floor,
+        )?;
+        say(&format!(
+            "   + {label}: error {:.4} -> {:.4} ({:.1}x the floor) -> {}",
+            aug.error_before,
+            aug.error_after,
+            aug.error_after / aug.noise_floor,
+            next.display()
+        ));
+        versions.push(Version {
+            model: next.clone(),
+            change: aug.change.clone(),
+            error: aug.error_after,
+            noise_floor: aug.noise_floor,
+        });
+        current_path = next;
+    }
+    let obs: Vec<&Observation> = r.observations.iter().collect();
+    let final_preds = zmp_validation::diagnose::measure::predict(&r.final_model, &obs)?;
     let still_failing: Vec<String> = zmp_validation::diagnose::cells::cells(&obs, &final_preds)
         .iter()
         .filter(|c| c.significant)
         .take(8)
         .map(|c| c.line())
         .collect();
-    if !last.explained && last.model != versions[0].model.display().to_string() {
-        let dir = out.join("diagnosis-final");
-        reports.push(write_diagnosis_report(camp, &last, &dir, a.force)?);
-    }
     let history = out.join("history.svg");
     if quiet {
         history_plot(&current_path, Some(&history), true)?;
     } else {
         history_cmd(&current_path, Some(&history), true, false)?;
     }
-    let outcome = if explained {
-        "explained"
-    } else {
-        "unexplained"
-    };
+    let outcome = if r.explained { "explained" } else { "unexplained" };
     say(&format!(
         "outcome: {outcome}{}",
-        if found.is_empty() {
+        if r.found.is_empty() {
             String::new()
         } else {
-            format!(" after adding {}", found.join(", "))
+            format!(" after adding {}", r.found.join(", "))
         }
     ));
     for c in &still_failing {
@@ -263,11 +199,11 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     }
     Ok(LoopSummary {
         campaign: a.campaign.to_path_buf(),
-        found,
+        found: r.found.clone(),
         outcome: outcome.into(),
-        verdict,
+        verdict: r.diagnoses.first().map_or(String::new(), |d| d.verdict.clone()),
         versions,
-        noise_floor: floor,
+        noise_floor: r.noise_floor,
         reports,
         history,
         final_model: current_path,
@@ -275,8 +211,3 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     })
 }
 
-fn file_name(p: &Path) -> String {
-    p.file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default()
-}

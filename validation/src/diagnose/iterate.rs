@@ -1,0 +1,117 @@
+//! The user's loop without the files: identify the seed's model (with the acceleration limit
+//! when the data show one), diagnose it, take the models the diagnosis fitted with each
+//! effect it found (fitted further to convergence), diagnose again, until the model explains
+//! the data or nothing significant is left. `cargo xtask loop` writes what this returns.
+
+use super::augment::{augmented_from_diagnosis, Augmented};
+use super::engine::evaluate;
+use super::measure::{aggregate, predict};
+use super::observe::Observation;
+use super::run::{diagnose_observations, explains, observations_of, DiagnoseError, Diagnosis};
+use super::select::MAX_EFFECTS;
+use super::DiagnoseOptions;
+use crate::campaign::Campaign;
+use crate::identify::{identify_with_progress, Identification, IdentifyError, IdentifyOptions};
+use zmp_models::ModelSpec;
+
+/// Diagnosis rounds at most (each may add several effects).
+pub const MAX_ROUNDS: usize = 3;
+
+/// What went wrong in the loop.
+#[derive(Debug, thiserror::Error)]
+pub enum LoopError {
+    #[error(transparent)]
+    Identify(#[from] IdentifyError),
+    #[error(transparent)]
+    Diagnose(#[from] DiagnoseError),
+    #[error("{0}")]
+    Model(#[from] zmp_models::ModelError),
+}
+
+/// What the loop found and the models it went through.
+#[derive(Debug, Clone)]
+pub struct LoopResult {
+    pub identification: Identification,
+    /// The identified model's error and noise floor.
+    pub identified_error: f64,
+    pub noise_floor: f64,
+    /// Each version after the identified model: the effects it adds (one, or a pair found
+    /// together) and the model.
+    pub versions: Vec<(Vec<String>, Augmented)>,
+    /// Every diagnosis run, in order.
+    pub diagnoses: Vec<Diagnosis>,
+    /// Effects added, in order.
+    pub found: Vec<String>,
+    /// Whether the last model explains the data (error within 1.5x the noise floor, no cell
+    /// significantly above its floor).
+    pub explained: bool,
+    pub final_error: f64,
+    pub final_model: ModelSpec,
+    /// The observations the loop compared (the identification's record analyses).
+    pub observations: Vec<Observation>,
+}
+
+/// Runs the loop on `campaign`. `start` is a model whose structure is identified instead of
+/// the seed's; `progress(stage)` names each stage as it starts.
+pub fn run_loop(
+    campaign: &Campaign,
+    start: Option<ModelSpec>,
+    iopts: &IdentifyOptions,
+    opts: &DiagnoseOptions,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<LoopResult, LoopError> {
+    progress("identifying");
+    let iopts = IdentifyOptions {
+        include_saturation: true,
+        start_model: start,
+        ..iopts.clone()
+    };
+    let ident = identify_with_progress(campaign, &iopts, &|_| {})?;
+    let (observations, skipped) = observations_of(&ident.records);
+    let obs: Vec<&Observation> = observations.iter().collect();
+    let (e0, floor) = aggregate(&evaluate(&ident.model, &obs)?);
+    let mut current = ident.model.clone();
+    let mut found: Vec<String> = Vec::new();
+    let mut versions = Vec::new();
+    let mut diagnoses = Vec::new();
+    for _ in 0..MAX_ROUNDS {
+        progress("diagnosing");
+        let d = diagnose_observations(observations.clone(), skipped.clone(), &current, opts, progress)?;
+        let steps: Vec<(Vec<String>, super::engine::Fitted)> = d
+            .path
+            .iter()
+            .filter(|(added, _)| added.iter().all(|e| !found.contains(e)))
+            .cloned()
+            .collect();
+        diagnoses.push(d);
+        if steps.is_empty() || found.len() >= MAX_EFFECTS {
+            break;
+        }
+        for (added, fitted) in steps {
+            if found.len() + added.len() > MAX_EFFECTS {
+                break;
+            }
+            let label = added.join("+");
+            progress(&format!("adding {label}"));
+            let aug = augmented_from_diagnosis(&obs, &current, &fitted, &label, opts)?;
+            current = aug.spec.clone();
+            found.extend(added.iter().cloned());
+            versions.push((added, aug));
+        }
+    }
+    let preds = predict(&current, &obs)?;
+    let explained = explains(&obs, &preds);
+    let final_error = aggregate(&evaluate(&current, &obs)?).0;
+    Ok(LoopResult {
+        identification: ident,
+        identified_error: e0,
+        noise_floor: floor,
+        versions,
+        diagnoses,
+        found,
+        explained,
+        final_error,
+        final_model: current,
+        observations,
+    })
+}
