@@ -4,6 +4,7 @@
 
 pub mod axis;
 pub mod closed_loop;
+pub mod com;
 pub mod controller;
 pub mod effect;
 pub mod effects;
