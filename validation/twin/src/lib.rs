@@ -7,3 +7,4 @@
 pub mod mj;
 
 pub use mj::{load_mjcf, load_mjcf_str, TwinError};
+pub mod sabian;
