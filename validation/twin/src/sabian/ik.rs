@@ -41,6 +41,14 @@ pub fn solve(robot: &mut Sabian, t: &IkTarget) -> Result<usize, TwinError> {
         for s in 0..2 {
             q[idx.leg_qpos[s][SHANK_YAW]] = 0.0;
         }
+        // A straight knee is singular and the solver could bend it backwards: start bent.
+        for s in 0..2 {
+            if q[idx.leg_qpos[s][3]] < 0.2 {
+                q[idx.leg_qpos[s][2]] = -0.4;
+                q[idx.leg_qpos[s][3]] = 0.8;
+                q[idx.leg_qpos[s][5]] = -0.4;
+            }
+        }
         q[idx.waist_qpos[0]] = t.waist[0];
         q[idx.waist_qpos[1]] = t.waist[1];
     }
@@ -110,6 +118,10 @@ pub fn solve(robot: &mut Sabian, t: &IkTarget) -> Result<usize, TwinError> {
         let q = robot.data.qpos_mut();
         for (ci, &adr) in qadr.iter().enumerate() {
             q[adr] += dq[ci].clamp(-0.2, 0.2);
+        }
+        for s in 0..2 {
+            let knee = &mut q[idx.leg_qpos[s][3]];
+            *knee = knee.max(0.05);
         }
     }
     Err(TwinError::Model {

@@ -1,6 +1,7 @@
 //! The SABIAN twin of the second seed: the robot (`models/mjcf/sabian.xml` plus an error mass),
 //! whole-body inverse kinematics, the CoM calibration postures and the walking comparison.
 
+pub mod calibrate;
 pub mod ik;
 pub mod robot;
 
