@@ -52,7 +52,6 @@ pub fn solve(robot: &mut Sabian, t: &IkTarget) -> Result<usize, TwinError> {
         q[idx.waist_qpos[0]] = t.waist[0];
         q[idx.waist_qpos[1]] = t.waist[1];
     }
-    let nv = robot.model().ffi().nv as usize;
     // Free dofs (dof address, qpos address): the leg joints but the shank yaw, and the pelvis's
     // x, y when the CoM is targeted.
     let mut cols: Vec<usize> = Vec::new();
@@ -70,62 +69,99 @@ pub fn solve(robot: &mut Sabian, t: &IkTarget) -> Result<usize, TwinError> {
         qadr.extend([0, 1]);
     }
     let rows = if t.com_xy.is_some() { 14 } else { 12 };
+    // Levenberg-Marquardt on the task error: a step that does not reduce the error is undone
+    // and the damping raised.
+    let mut lambda2 = 1e-6;
     let mut worst = f64::INFINITY;
-    for it in 0..100 {
-        robot.kinematics();
-        let mut e = DVector::<f64>::zeros(rows);
-        let mut j = DMatrix::<f64>::zeros(rows, cols.len());
-        for s in 0..2 {
-            let site = idx.sole_bottom_site[s];
-            let p = vec3(&robot.data.site_xpos()[site]);
-            let r = mat3(&robot.data.site_xmat()[site]);
-            let ep = t.feet[s] - p;
-            let mut er = Vec3::zeros();
-            for c in 0..3 {
-                er += r.column(c).cross(&Mat3::identity().column(c));
-            }
-            er *= 0.5;
-            for k in 0..3 {
-                e[6 * s + k] = ep[k];
-                e[6 * s + 3 + k] = er[k];
-            }
-            let (jp, jr) = robot.data.jac_site(true, true, site);
-            for (ci, &dof) in cols.iter().enumerate() {
-                for k in 0..3 {
-                    j[(6 * s + k, ci)] = jp[k * nv + dof];
-                    j[(6 * s + 3 + k, ci)] = jr[k * nv + dof];
-                }
-            }
-        }
-        if let Some(c) = t.com_xy {
-            let com = robot.com();
-            e[12] = c[0] - com.x;
-            e[13] = c[1] - com.y;
-            let jc = robot.data.jac_subtree_com(idx.pelvis);
-            for (ci, &dof) in cols.iter().enumerate() {
-                j[(12, ci)] = jc[dof];
-                j[(13, ci)] = jc[nv + dof];
-            }
-        }
+    let (mut e, mut j) = task(robot, t, &cols, rows);
+    for it in 0..200 {
         worst = e.amax();
         if worst < 1e-10 {
+            // The data may hold a rejected trial's kinematics: recompute at the solution.
+            robot.kinematics();
             return Ok(it);
         }
-        let lambda2 = 1e-8;
         let jjt = &j * j.transpose() + DMatrix::identity(rows, rows) * lambda2;
         let Some(sol) = jjt.cholesky() else { break };
         let dq = j.transpose() * sol.solve(&e);
-        let q = robot.data.qpos_mut();
-        for (ci, &adr) in qadr.iter().enumerate() {
-            q[adr] += dq[ci].clamp(-0.2, 0.2);
+        let saved: Vec<f64> = qadr.iter().map(|&a| robot.data.qpos()[a]).collect();
+        {
+            let q = robot.data.qpos_mut();
+            for (ci, &adr) in qadr.iter().enumerate() {
+                q[adr] += dq[ci].clamp(-0.2, 0.2);
+            }
+            for s in 0..2 {
+                let knee = &mut q[idx.leg_qpos[s][3]];
+                *knee = knee.max(0.05);
+            }
         }
-        for s in 0..2 {
-            let knee = &mut q[idx.leg_qpos[s][3]];
-            *knee = knee.max(0.05);
+        let (e2, j2) = task(robot, t, &cols, rows);
+        if e2.norm() < e.norm() {
+            e = e2;
+            j = j2;
+            lambda2 = (lambda2 / 10.0).max(1e-12);
+        } else {
+            let q = robot.data.qpos_mut();
+            for (ci, &adr) in qadr.iter().enumerate() {
+                q[adr] = saved[ci];
+            }
+            lambda2 *= 10.0;
+            if lambda2 > 1e6 {
+                break;
+            }
         }
     }
     Err(TwinError::Model {
         path: robot.name.clone(),
         message: format!("inverse kinematics did not converge (largest error {worst:.3e})"),
     })
+}
+
+/// The task error (feet position and orientation, CoM) and its Jacobian over `cols`.
+fn task(
+    robot: &mut Sabian,
+    t: &IkTarget,
+    cols: &[usize],
+    rows: usize,
+) -> (DVector<f64>, DMatrix<f64>) {
+    let idx = &robot.idx;
+    let soles = idx.sole_bottom_site;
+    let pelvis = idx.pelvis;
+    let nv = robot.model().ffi().nv as usize;
+    robot.kinematics();
+    let mut e = DVector::<f64>::zeros(rows);
+    let mut j = DMatrix::<f64>::zeros(rows, cols.len());
+    for s in 0..2 {
+        let site = soles[s];
+        let p = vec3(&robot.data.site_xpos()[site]);
+        let r = mat3(&robot.data.site_xmat()[site]);
+        let ep = t.feet[s] - p;
+        let mut er = Vec3::zeros();
+        for c in 0..3 {
+            er += r.column(c).cross(&Mat3::identity().column(c));
+        }
+        er *= 0.5;
+        for k in 0..3 {
+            e[6 * s + k] = ep[k];
+            e[6 * s + 3 + k] = er[k];
+        }
+        let (jp, jr) = robot.data.jac_site(true, true, site);
+        for (ci, &dof) in cols.iter().enumerate() {
+            for k in 0..3 {
+                j[(6 * s + k, ci)] = jp[k * nv + dof];
+                j[(6 * s + 3 + k, ci)] = jr[k * nv + dof];
+            }
+        }
+    }
+    if let Some(c) = t.com_xy {
+        let com = robot.com();
+        e[12] = c[0] - com.x;
+        e[13] = c[1] - com.y;
+        let jc = robot.data.jac_subtree_com(pelvis);
+        for (ci, &dof) in cols.iter().enumerate() {
+            j[(12, ci)] = jc[dof];
+            j[(13, ci)] = jc[nv + dof];
+        }
+    }
+    (e, j)
 }

@@ -2,7 +2,10 @@
 //! whole-body inverse kinematics, the CoM calibration postures and the walking comparison.
 
 pub mod calibrate;
+pub mod compare;
+pub mod experiment;
 pub mod ik;
 pub mod robot;
+pub mod walk;
 
 pub use robot::{PointMass, Sabian, Variant};

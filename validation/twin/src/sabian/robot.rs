@@ -73,7 +73,7 @@ pub fn variant_xml(cad: &str, v: &Variant) -> Result<String, TwinError> {
         );
     }
     if let Some(s) = v.servo_gain_scale {
-        xml = xml.replace("kp=\"6000\"", &format!("kp=\"{}\"", 6000.0 * s));
+        xml = xml.replace("kp=\"20000\"", &format!("kp=\"{}\"", 20000.0 * s));
     }
     Ok(xml)
 }
