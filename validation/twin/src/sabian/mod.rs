@@ -2,9 +2,11 @@
 //! whole-body inverse kinematics, the CoM calibration postures and the walking comparison.
 
 pub mod calibrate;
+pub mod cli;
 pub mod compare;
 pub mod experiment;
 pub mod ik;
+pub mod report;
 pub mod robot;
 pub mod walk;
 

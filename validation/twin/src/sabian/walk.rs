@@ -187,8 +187,10 @@ pub struct Run {
     /// Roll joints (rad), measured and planned: left ankle, left hip, right ankle, right hip.
     pub roll: Vec<[f64; 4]>,
     pub roll_plan: Vec<[f64; 4]>,
-    /// Largest swing-foot clearance reached (m) and the number of steps with the foot lifted.
+    /// Largest sole height reached (m).
     pub max_clearance_m: f64,
+    /// Where the pelvis ended (m).
+    pub final_pelvis: [f64; 2],
     /// Wall time of the simulation (s) and simulated time (s).
     pub wall_s: f64,
     pub sim_s: f64,
@@ -272,6 +274,7 @@ pub fn execute(
         roll: Vec::with_capacity(phases),
         roll_plan: Vec::with_capacity(phases),
         max_clearance_m: 0.0,
+        final_pelvis: [0.0; 2],
         wall_s: 0.0,
         sim_s: 0.0,
     };
@@ -327,6 +330,7 @@ pub fn execute(
         }
     }
     run.wall_s = started.elapsed().as_secs_f64();
+    run.final_pelvis = [robot.data.qpos()[0], robot.data.qpos()[1]];
     run.sim_s = robot.data.time();
     Ok(run)
 }
