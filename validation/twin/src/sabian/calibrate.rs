@@ -455,18 +455,21 @@ pub struct ComResult {
     pub com: [f64; 3],
     /// Its error against MuJoCo's (m).
     pub error: [f64; 3],
-    /// The estimate's standard deviations, from the covariance (m) (NaN where not available).
+    /// The estimate's standard deviations, from the covariance (m).
     pub std: [f64; 3],
+    /// The estimate's covariance (m^2).
+    pub covariance: [[f64; 3]; 3],
     /// Estimated whole-robot mass (kg).
     pub mass_kg: f64,
 }
 
-fn result(total: &CadCom, truth: &Vec3, cov: Option<&com::Mat3>) -> ComResult {
+fn result(total: &CadCom, truth: &Vec3, cov: &com::Mat3) -> ComResult {
     let e = total.com - truth;
     ComResult {
         com: total.com.into(),
         error: e.into(),
-        std: std::array::from_fn(|k| cov.map_or(f64::NAN, |c| c[(k, k)].sqrt())),
+        std: std::array::from_fn(|k| cov[(k, k)].sqrt()),
+        covariance: std::array::from_fn(|r| std::array::from_fn(|c| cov[(r, c)])),
         mass_kg: total.mass_kg,
     }
 }
@@ -501,7 +504,7 @@ pub fn seed_calibration(
         let (with, without) = cad_with_and_without_feet(&held[0], &soles);
         let total = com::total_com_with_feet(la.mass_kg, &c2, &with, &without)?;
         let f = la.mass_kg / total.mass_kg;
-        out.push(result(&total, &held[0].true_com, Some(&(cov2 * f * f))));
+        out.push(result(&total, &held[0].true_com, &(cov2 * f * f)));
     }
     Ok((out[0], out[1]))
 }
@@ -540,10 +543,7 @@ pub fn regressor_calibration(
     let (with, without) = cad_with_and_without_feet(&held[0], &soles);
     let total = com::total_com_with_feet(m2, &c2, &with, &without)?;
     let f = m2 / total.mass_kg;
-    Ok((
-        result(&total, &held[0].true_com, Some(&(cov2 * f * f))),
-        est,
-    ))
+    Ok((result(&total, &held[0].true_com, &(cov2 * f * f)), est))
 }
 
 /// Chooses `n` postures of [`candidates`] by D-optimality on the CAD kinematics, keeping those

@@ -2,7 +2,7 @@
 
 use super::calibrate::FOOT_SPACING;
 use super::experiment::{calibrate, virtual_models, walk_models, Options};
-use super::report::{markdown, write, Outcome};
+use super::report::{check_out, markdown, write, Outcome};
 use anyhow::{bail, Result};
 use clap::Subcommand;
 use std::path::PathBuf;
@@ -71,6 +71,7 @@ pub fn run(cmd: SabianCommand) -> Result<()> {
                 }
                 opt.draws = d;
             }
+            check_out(&out, force)?;
             let started = std::time::Instant::now();
             eprintln!("calibrating the CoM ({} noise draws) ...", opt.draws);
             let cal = calibrate(&opt)?;

@@ -242,6 +242,31 @@ fn fmt_num(v: f64) -> String {
     }
 }
 
+/// The files [`write`] puts into its folder (and nothing else).
+pub const FILES: [&str; 7] = [
+    "com-calibration.toml",
+    "report.html",
+    "com-error-ellipses.svg",
+    "walk-zmp-y.svg",
+    "walk-zmp-xy.svg",
+    "walk-zmp-xy-error.svg",
+    "walk-zmp-contact.svg",
+];
+
+/// Fails if `out` holds one of our files and `force` is off (checked before the long run).
+pub fn check_out(out: &Path, force: bool) -> Result<()> {
+    if force {
+        return Ok(());
+    }
+    for f in FILES {
+        let p = out.join(f);
+        if p.exists() {
+            anyhow::bail!("{} exists; pass --force to overwrite it", p.display());
+        }
+    }
+    Ok(())
+}
+
 /// Writes the TOML, the HTML and the figures into `out`; returns the files written.
 pub fn write(o: &Outcome, out: &Path, force: bool) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(out)?;
@@ -259,43 +284,32 @@ pub fn write(o: &Outcome, out: &Path, force: bool) -> Result<Vec<PathBuf>> {
 /// The SVG figures (written into `dir`).
 pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();
-    // Error ellipses (2 sigma) and the draws, relative to the true CoM, in mm.
+    // Error ellipses (2 sigma, from the reported covariance averaged over the draws) and the
+    // draws, relative to the true CoM, in mm; each design on its own scale.
     let c = &o.calibration;
     let mut panels = Vec::new();
-    for (axes, title) in [((0, 2), "x-z"), ((1, 2), "y-z"), ((0, 1), "x-y")] {
-        let mut series = Vec::new();
-        for (k, d) in [&c.seed_zeroed, &c.designed].iter().enumerate() {
-            let color = PALETTE[k + 1];
-            series.push(TimeSeries {
-                label: format!("{} (draws)", d.name),
-                t: d.draws.iter().map(|r| r.error[axes.0] * 1e3).collect(),
-                y: d.draws.iter().map(|r| r.error[axes.1] * 1e3).collect(),
-                color,
-                style: Style::Points,
-            });
-            let (sa, sb) = (rms(d, axes.0), rms(d, axes.1));
-            let (t, y): (Vec<f64>, Vec<f64>) = (0..=72)
-                .map(|i| {
-                    let a = std::f64::consts::TAU * i as f64 / 72.0;
-                    (2.0 * sa * a.cos() * 1e3, 2.0 * sb * a.sin() * 1e3)
-                })
-                .unzip();
-            series.push(TimeSeries {
-                label: format!("{} (2 sigma, reported)", d.name),
-                t,
-                y,
-                color,
-                style: Style::Line,
+    let names = ["x", "y", "z"];
+    for (k, d) in [&c.designed, &c.seed_zeroed].iter().enumerate() {
+        let color = PALETTE[2 - k];
+        for (a, b) in [(0, 2), (1, 2), (0, 1)] {
+            let cov = mean_covariance(d);
+            panels.push(TimePanel {
+                title: format!("{}: CoM error {}-{} (mm)", d.name, names[a], names[b]),
+                y_label: format!("{} error (mm)", names[b]),
+                x_label: Some(format!("{} error (mm)", names[a])),
+                series: vec![
+                    TimeSeries {
+                        label: "draws".into(),
+                        t: d.draws.iter().map(|r| r.error[a] * 1e3).collect(),
+                        y: d.draws.iter().map(|r| r.error[b] * 1e3).collect(),
+                        color,
+                        style: Style::Points,
+                    },
+                    ellipse(&cov, a, b, color),
+                ],
+                markers: vec![],
             });
         }
-        let names = ["x", "y", "z"];
-        panels.push(TimePanel {
-            title: format!("CoM error, {title} (mm)"),
-            y_label: format!("{} error (mm)", names[axes.1]),
-            x_label: Some(format!("{} error (mm)", names[axes.0])),
-            series,
-            markers: vec![],
-        });
     }
     let p = dir.join("com-error-ellipses.svg");
     time_svg(&p, &panels, force)?;
@@ -431,8 +445,40 @@ pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {
     Ok(files)
 }
 
-fn rms(d: &DesignOutcome, axis: usize) -> f64 {
-    (d.draws.iter().map(|r| r.std[axis].powi(2)).sum::<f64>() / d.draws.len() as f64).sqrt()
+fn mean_covariance(d: &DesignOutcome) -> [[f64; 3]; 3] {
+    let n = d.draws.len().max(1) as f64;
+    std::array::from_fn(|r| {
+        std::array::from_fn(|c| d.draws.iter().map(|x| x.covariance[r][c]).sum::<f64>() / n)
+    })
+}
+
+/// The 2-sigma ellipse of the (a, b) marginal of `cov` (m^2), in mm.
+fn ellipse(
+    cov: &[[f64; 3]; 3],
+    a: usize,
+    b: usize,
+    color: plotters::style::RGBColor,
+) -> TimeSeries {
+    let m = nalgebra::Matrix2::new(cov[a][a], cov[a][b], cov[b][a], cov[b][b]);
+    let eig = m.symmetric_eigen();
+    let (t, y): (Vec<f64>, Vec<f64>) = (0..=96)
+        .map(|i| {
+            let th = std::f64::consts::TAU * i as f64 / 96.0;
+            let u = nalgebra::Vector2::new(
+                2.0 * eig.eigenvalues[0].max(0.0).sqrt() * th.cos(),
+                2.0 * eig.eigenvalues[1].max(0.0).sqrt() * th.sin(),
+            );
+            let p = eig.eigenvectors * u;
+            (p[0] * 1e3, p[1] * 1e3)
+        })
+        .unzip();
+    TimeSeries {
+        label: "2 sigma (reported covariance)".into(),
+        t,
+        y,
+        color,
+        style: Style::Line,
+    }
 }
 
 /// The mean over runs (that did not fall) of the ideal and real ZMP traces.
