@@ -86,25 +86,41 @@ fn a_moved_1kg_mass_is_located_from_the_com_shift_within_1mm() {
     };
     let before = hold_postures(&s.specs, &variant(known), s.home_x).unwrap();
     let after = hold_postures(&s.specs, &variant(moved), s.home_x).unwrap();
-    let mut rng = rng(7);
     // Same sensors and encoders (offsets, tilt errors) before and after; each posture held
-    // 100 x 0.5 s, so the white noise averages down by 10.
-    let offsets = draw_offsets(&noise, &mut rng);
-    let tilts = draw_tilts(before.len(), &noise, &mut rng);
-    let (_, a) =
-        regressor_calibration(&before, &offsets, &tilts, 100.0, &noise, s.soles, &mut rng).unwrap();
-    let (_, b) =
-        regressor_calibration(&after, &offsets, &tilts, 100.0, &noise, s.soles, &mut rng).unwrap();
-    // The CoM shift in the trunk's frame (the servos' deflections differ with the mass's place,
-    // so the world-frame CoM at "the same" posture also moves by the body's sag) is the change
-    // of the trunk's unknown first moment: 1 kg times the displacement.
-    let shift = b.error_first_moment() - a.error_first_moment();
-    let located = known + shift / 1.0;
-    let e = located - moved;
-    let sd: Vec<f64> = (1..4)
-        .map(|k| (a.covariance[(k, k)] + b.covariance[(k, k)]).sqrt())
-        .collect();
-    eprintln!("located error {e} (std of the shift {sd:?} kg m)");
-    assert!(e.xy().norm() < 1e-3, "1 kg mass located {e} m off");
-    assert!((b.error_mass_kg() - a.error_mass_kg()).abs() < 0.05);
+    // 400 x 0.5 s, so the white noise averages down by 20. (With 100 x, the horizontal error
+    // was 0.5 mm RMS per axis and exceeded 1 mm in 2 of 12 draws.) Eight draws, each within
+    // 1 mm horizontally.
+    let mut worst: f64 = 0.0;
+    let mut vertical = Vec::new();
+    for seed in 0..8u64 {
+        let mut rng = rng(100 + seed);
+        let offsets = draw_offsets(&noise, &mut rng);
+        let tilts = draw_tilts(before.len(), &noise, &mut rng);
+        let (_, a) =
+            regressor_calibration(&before, &offsets, &tilts, 400.0, &noise, s.soles, &mut rng)
+                .unwrap();
+        let (_, b) =
+            regressor_calibration(&after, &offsets, &tilts, 400.0, &noise, s.soles, &mut rng)
+                .unwrap();
+        // The CoM shift in the trunk's frame (the servos' deflections differ with the mass's
+        // place, so the world-frame CoM at "the same" posture also moves by the body's sag)
+        // is the change of the trunk's unknown first moment: 1 kg times the displacement.
+        let shift = b.error_first_moment() - a.error_first_moment();
+        let e = known + shift / 1.0 - moved;
+        assert!(
+            e.xy().norm() < 1e-3,
+            "draw {seed}: 1 kg mass located {e} m off"
+        );
+        assert!((b.error_mass_kg() - a.error_mass_kg()).abs() < 0.05);
+        worst = worst.max(e.xy().norm());
+        vertical.push(e.z);
+    }
+    eprintln!(
+        "largest horizontal error {:.3} mm; vertical errors {:?} mm",
+        worst * 1e3,
+        vertical
+            .iter()
+            .map(|v| (v * 1e4).round() / 10.0)
+            .collect::<Vec<_>>()
+    );
 }
