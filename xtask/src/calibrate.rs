@@ -19,11 +19,7 @@ pub struct CalibrateArgs {
 }
 
 fn abs(p: &Path) -> PathBuf {
-    if p.is_absolute() {
-        p.to_path_buf()
-    } else {
-        std::env::current_dir().map_or(p.to_path_buf(), |d| d.join(p))
-    }
+    std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf())
 }
 
 pub fn calibrate_com(a: &CalibrateArgs) -> Result<()> {

@@ -13,7 +13,8 @@ pub fn demo_step(out: &Path, quiet: bool) -> Result<()> {
              models n, r, s, v, e, one walk each"
         );
     }
-    let dir = out.join("com");
+    // The twin runs from the repository root: an absolute path.
+    let dir = std::path::absolute(out.join("com"))?;
     let mut args = vec![
         "sabian".to_string(),
         "calibrate-com".into(),
