@@ -1,7 +1,8 @@
 //! The SABIAN twin stands on its two sensors, and they carry its weight.
 
-use zmp_models::com::{Mat3, Vec3};
+use zmp_models::com::{Mat3, Vec3, Wrench};
 use zmp_twin::sabian::ik::{solve, IkTarget};
+use zmp_twin::sabian::walk::measured_zmp;
 use zmp_twin::sabian::{Sabian, Variant};
 
 #[test]
@@ -30,5 +31,12 @@ fn the_cad_twin_stands_and_its_sensors_carry_the_body() {
         body_mass * 9.81
     );
     assert!(r.com().z > 0.55, "fell: CoM at {}", r.com());
-    eprintln!("CoM {} pelvis {:?}", r.com(), &r.data.qpos()[..3]);
+    // At rest the ZMP the two ankle sensors give (sole weights removed) is the ground
+    // projection of the whole robot's CoM.
+    let zmp = measured_zmp(&r, &mut Wrench::zero).unwrap();
+    let c = r.com();
+    assert!(
+        (zmp[0] - c.x).hypot(zmp[1] - c.y) < 1e-3,
+        "sensor ZMP {zmp:?} vs CoM {c}"
+    );
 }

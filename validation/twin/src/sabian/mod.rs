@@ -6,6 +6,7 @@ pub mod cli;
 pub mod compare;
 pub mod experiment;
 pub mod ik;
+pub mod postures;
 pub mod report;
 pub mod robot;
 pub mod walk;
