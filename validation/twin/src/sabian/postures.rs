@@ -51,7 +51,8 @@ impl PostureSpec {
     pub fn pose(&self, robot: &mut Sabian, home_pelvis_x: f64) -> Result<(), TwinError> {
         let y = FOOT_SPACING / 2.0;
         let mut feet = [Vec3::new(0.0, y, 0.0), Vec3::new(0.0, -y, 0.0)];
-        let pivot = Vec3::new(SOLE_CENTRE_X, 0.0, ANKLE_HEIGHT);
+        // The ankles' axes (x = 0): a pure pitch tilt keeps the legs' shape (the seed's rigid tilt).
+        let pivot = Vec3::new(0.0, 0.0, ANKLE_HEIGHT);
         let rot = rot_y(self.pitch_deg.to_radians()) * rot_x(-self.roll_deg.to_radians());
         let home = Vec3::new(home_pelvis_x, 0.0, PELVIS_HEIGHT - self.drop_m);
         let pelvis = pivot + rot * (home - pivot);
