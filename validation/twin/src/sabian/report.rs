@@ -562,7 +562,12 @@ fn markdown_to_html(md: &str) -> String {
             }
             s.push_str("<tr>");
             for cell in line.trim_matches('|').split(" | ") {
-                let cell = cell.trim().replace("\\|", "|");
+                let cell = cell
+                    .trim()
+                    .replace("\\|", "|")
+                    .replace('&', "&amp;")
+                    .replace('<', "&lt;")
+                    .replace('>', "&gt;");
                 if let Some(b) = cell.strip_prefix("**").and_then(|c| c.strip_suffix("**")) {
                     let _ = write!(s, "<td><b>{b}</b></td>");
                 } else {
@@ -579,4 +584,25 @@ fn markdown_to_html(md: &str) -> String {
         s.push_str("</table>");
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_seeds_tables_are_found_by_our_row_labels() {
+        assert_eq!(seed_value("corr Y pos", "r"), Some(0.7799));
+        assert_eq!(seed_value("RMS XY acc [m/s2]", "r"), Some(19.3339));
+        assert_eq!(seed_value("R hip roll acc [deg/s2]", "s"), Some(111.693));
+        assert_eq!(seed_value("bias X [m]", "n"), None);
+        assert_eq!(seed_value("corr X pos", "e"), None);
+    }
+
+    #[test]
+    fn table_cells_are_escaped_in_html() {
+        let h = markdown_to_html("| a \\| b | <= 2 |\n|---|---|\n| **x** | y & z |\n");
+        assert!(h.contains("<td>a | b</td><td>&lt;= 2</td>"), "{h}");
+        assert!(h.contains("<td><b>x</b></td><td>y &amp; z</td>"), "{h}");
+    }
 }
