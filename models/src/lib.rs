@@ -4,6 +4,7 @@
 
 pub mod axis;
 pub mod closed_loop;
+pub mod com;
 pub mod controller;
 pub mod effect;
 pub mod effects;
@@ -12,6 +13,7 @@ pub mod lti;
 pub mod lti_effect;
 pub mod model_file;
 pub mod plant;
+pub mod walking;
 
 pub use axis::{Axis, Channel};
 pub use effect::{lookup, Binding, Effect, EffectInfo, ParamSpec, Site, REGISTRY};

@@ -256,6 +256,7 @@ pub fn demo(out: &Path, _force: bool, json: bool) -> Result<()> {
     say("5. The promise: compare, diagnose the missing effect, add it, watch the error fall");
     let lp = crate::diagnose::demo_loop(&spec, &out.join("loop"), quiet)?;
     crate::twin::demo_step(out, quiet)?;
+    crate::demo_com::demo_step(out, quiet)?;
 
     if json {
         let s = Summary {

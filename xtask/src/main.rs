@@ -1,7 +1,9 @@
 //! `cargo xtask <verb>`: the command line for users and CI.
 
+mod calibrate;
 mod ci;
 mod demo;
+mod demo_com;
 mod diagnose;
 mod env;
 mod fmu;
@@ -49,6 +51,39 @@ enum Cmd {
         /// Print a machine-readable summary on standard output.
         #[arg(long)]
         json: bool,
+    },
+    /// The second seed on the SABIAN MuJoCo twin: calibrate the effective centre of mass from
+    /// the two ankle force/torque sensors (the seed's upright + 1 degree design and a D-optimal
+    /// design, each over noise draws, against MuJoCo's true CoM), build the virtual models
+    /// n, r, s, v (and e: the error mass where the calibration puts it), walk the seed's
+    /// 8-step gait with each on the twin with the true masses, and write com-calibration.toml,
+    /// report.html (the seed's tables 2-4 beside ours) and SVG figures into OUT.
+    CalibrateCom {
+        /// Output folder.
+        #[arg(long, default_value = "out/com-calibration")]
+        out: PathBuf,
+        /// The short version (1 walk per model, 40 noise draws), as in the demo.
+        #[arg(long)]
+        quick: bool,
+        /// Walking runs per model (default 5, the seed's).
+        #[arg(long)]
+        runs: Option<usize>,
+        /// Noise draws of each calibration (default 200).
+        #[arg(long)]
+        draws: Option<usize>,
+        /// Also write the SVG figures into this folder (e.g. docs/figures); files of the same
+        /// names there are replaced.
+        #[arg(long)]
+        figures: Option<PathBuf>,
+        /// Print the tables as Markdown.
+        #[arg(long)]
+        markdown: bool,
+        /// Print everything as JSON.
+        #[arg(long)]
+        json: bool,
+        /// Overwrite the files an earlier run wrote in OUT.
+        #[arg(long)]
+        force: bool,
     },
     /// Build the FMI 2.0 and FMI 3.0 co-simulation FMUs of a model file: zmp_plant.fmu,
     /// zmp_controller.fmu and their _fmi3 versions (Linux 64-bit). Parameter start values are
@@ -277,6 +312,25 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Setup { quiet } => setup::setup(quiet).map(|_| ()),
         Cmd::Ci => ci::ci(),
         Cmd::Demo { out, force, json } => demo::demo(&out, force, json),
+        Cmd::CalibrateCom {
+            out,
+            quick,
+            runs,
+            draws,
+            figures,
+            markdown,
+            json,
+            force,
+        } => calibrate::calibrate_com(&calibrate::CalibrateArgs {
+            out,
+            quick,
+            runs,
+            draws,
+            figures,
+            markdown,
+            json,
+            force,
+        }),
         Cmd::Identify {
             campaign,
             out,

@@ -178,3 +178,23 @@ pub fn demo_step(out: &Path, quiet: bool) -> Result<()> {
     ));
     Ok(())
 }
+
+/// `cargo run --release -q -p zmp-twin --bin zmp-twin -- <args>` from the repository root with
+/// the prerequisites' environment (no renderer feature); fails when the binary does.
+pub fn run_twin(args: &[String], prereqs: &Prereqs) -> Result<()> {
+    let args: Vec<OsString> = args.iter().map(OsString::from).collect();
+    let mut cmd = twin_command(prereqs, false, &args)?;
+    let status = cmd
+        .status()
+        .context("starting cargo run -p zmp-twin (the MuJoCo twin binary)")?;
+    if !status.success() {
+        bail!(
+            "zmp-twin {} failed ({status})",
+            args.iter()
+                .map(|a| a.to_string_lossy().into_owned())
+                .collect::<Vec<_>>()
+                .join(" ")
+        );
+    }
+    Ok(())
+}

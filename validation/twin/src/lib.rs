@@ -13,4 +13,6 @@ pub mod render;
 pub mod silo2;
 pub mod zmp;
 
+pub mod sabian;
+
 pub use mj::{load_mjcf, load_mjcf_str, TwinError};

@@ -26,6 +26,12 @@ enum Robot {
         #[command(subcommand)]
         cmd: Silo2Cmd,
     },
+    /// The SABIAN twin of the second seed (models/mjcf/sabian.xml): effective centre of mass
+    /// from the two ankle force/torque sensors and the n/r/s/v walking comparison.
+    Sabian {
+        #[command(subcommand)]
+        command: zmp_twin::sabian::cli::SabianCommand,
+    },
 }
 
 #[derive(Subcommand)]
@@ -139,6 +145,7 @@ fn frames(no_frames: bool, unavailable: Option<String>) -> validate::Frames {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.robot {
+        Robot::Sabian { command } => zmp_twin::sabian::cli::run(command),
         Robot::Silo2 { cmd } => match cmd {
             Silo2Cmd::Validate {
                 out,

@@ -1,0 +1,14 @@
+//! The SABIAN twin of the second seed: the robot (`models/mjcf/sabian.xml` plus an error mass),
+//! whole-body inverse kinematics, the CoM calibration postures and the walking comparison.
+
+pub mod calibrate;
+pub mod cli;
+pub mod compare;
+pub mod experiment;
+pub mod ik;
+pub mod postures;
+pub mod report;
+pub mod robot;
+pub mod walk;
+
+pub use robot::{PointMass, Sabian, Variant};

@@ -1,0 +1,56 @@
+//! `cargo xtask calibrate-com`: the second seed's effective-CoM calibration and walking
+//! comparison on the SABIAN twin (runs `zmp-twin sabian calibrate-com`).
+
+use crate::env::prereqs;
+use crate::twin::run_twin;
+use anyhow::Result;
+use std::path::{Path, PathBuf};
+
+/// The command's options, as the user gave them.
+pub struct CalibrateArgs {
+    pub out: PathBuf,
+    pub quick: bool,
+    pub runs: Option<usize>,
+    pub draws: Option<usize>,
+    pub figures: Option<PathBuf>,
+    pub markdown: bool,
+    pub json: bool,
+    pub force: bool,
+}
+
+fn abs(p: &Path) -> PathBuf {
+    std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf())
+}
+
+pub fn calibrate_com(a: &CalibrateArgs) -> Result<()> {
+    crate::setup::setup(true)?;
+    // The twin runs from the repository root: paths are made absolute first.
+    let mut args: Vec<String> = vec![
+        "sabian".into(),
+        "calibrate-com".into(),
+        "--out".into(),
+        abs(&a.out).display().to_string(),
+    ];
+    if a.quick {
+        args.push("--quick".into());
+    }
+    if let Some(r) = a.runs {
+        args.extend(["--runs".into(), r.to_string()]);
+    }
+    if let Some(d) = a.draws {
+        args.extend(["--draws".into(), d.to_string()]);
+    }
+    if let Some(f) = &a.figures {
+        args.extend(["--figures".into(), abs(f).display().to_string()]);
+    }
+    for (on, flag) in [
+        (a.markdown, "--markdown"),
+        (a.json, "--json"),
+        (a.force, "--force"),
+    ] {
+        if on {
+            args.push(flag.into());
+        }
+    }
+    run_twin(&args, &prereqs())
+}
