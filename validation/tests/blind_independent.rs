@@ -29,7 +29,9 @@ const MIN_OUTSIDE: f64 = 0.80;
 fn run_all(cases: &[Case]) -> Vec<Outcome> {
     let dir = tempfile::tempdir().unwrap();
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let only: Option<u64> = std::env::var("ZMP_BLIND_SEED").ok().and_then(|s| s.parse().ok());
+    let only: Option<u64> = std::env::var("ZMP_BLIND_SEED")
+        .ok()
+        .and_then(|s| s.parse().ok());
     let cases: Vec<&Case> = cases
         .iter()
         .filter(|c| only.is_none_or(|s| s == c.seed))
@@ -58,19 +60,31 @@ fn check(outcomes: &[Outcome]) -> Vec<String> {
     let s = scores(outcomes);
     let mut bad = Vec::new();
     if frac(s.singles) < MIN_SINGLES {
-        bad.push(format!("single effects named: {:?} < {MIN_SINGLES}", s.singles));
+        bad.push(format!(
+            "single effects named: {:?} < {MIN_SINGLES}",
+            s.singles
+        ));
     }
     if frac(s.pairs) < MIN_PAIRS {
         bad.push(format!("pairs both found: {:?} < {MIN_PAIRS}", s.pairs));
     }
     if frac(s.clean) < MIN_CLEAN {
-        bad.push(format!("clean without a false effect: {:?} < {MIN_CLEAN}", s.clean));
+        bad.push(format!(
+            "clean without a false effect: {:?} < {MIN_CLEAN}",
+            s.clean
+        ));
     }
     if frac(s.outside) < MIN_OUTSIDE {
-        bad.push(format!("outside unexplained: {:?} < {MIN_OUTSIDE}", s.outside));
+        bad.push(format!(
+            "outside unexplained: {:?} < {MIN_OUTSIDE}",
+            s.outside
+        ));
     }
     if s.closed.0 < s.closed.1 {
-        bad.push(format!("in-catalogue draws not within 2x the floor after the loop: {:?}", s.closed));
+        bad.push(format!(
+            "in-catalogue draws not within 2x the floor after the loop: {:?}",
+            s.closed
+        ));
     }
     bad
 }

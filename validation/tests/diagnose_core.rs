@@ -4,10 +4,10 @@
 use zmp_models::{lookup, Axis, Binding, EffectInstance, ModelSpec};
 use zmp_validation::diagnose::candidates::CATALOGUE;
 use zmp_validation::diagnose::engine::{control, evaluate, own_parameters, score_candidate};
-use zmp_validation::diagnose::select::gain;
 use zmp_validation::diagnose::measure::aggregate;
 use zmp_validation::diagnose::observe::Observation;
 use zmp_validation::diagnose::run::observe_campaign;
+use zmp_validation::diagnose::select::gain;
 use zmp_validation::virtual_robot::{logspace, simulate_campaign, ExperimentDesign};
 
 fn paper() -> ModelSpec {

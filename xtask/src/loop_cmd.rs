@@ -110,7 +110,14 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     // The files: the identified model, each version, the ledger, the reports.
     write_model(&r.identification, &identified, true)?;
     let cname = a.campaign.display().to_string();
-    ledger::append(&identified, None, "identified", &cname, r.identified_error, r.noise_floor)?;
+    ledger::append(
+        &identified,
+        None,
+        "identified",
+        &cname,
+        r.identified_error,
+        r.noise_floor,
+    )?;
     say(&format!(
         "identified {} ({} records): error {:.4} = {:.1}x the noise floor",
         identified.display(),
@@ -185,7 +192,11 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     } else {
         history_cmd(&current_path, Some(&history), true, false)?;
     }
-    let outcome = if r.explained { "explained" } else { "unexplained" };
+    let outcome = if r.explained {
+        "explained"
+    } else {
+        "unexplained"
+    };
     say(&format!(
         "outcome: {outcome}{}",
         if r.found.is_empty() {
@@ -201,7 +212,10 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         campaign: a.campaign.to_path_buf(),
         found: r.found.clone(),
         outcome: outcome.into(),
-        verdict: r.diagnoses.first().map_or(String::new(), |d| d.verdict.clone()),
+        verdict: r
+            .diagnoses
+            .first()
+            .map_or(String::new(), |d| d.verdict.clone()),
         versions,
         noise_floor: r.noise_floor,
         reports,
@@ -210,4 +224,3 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         still_failing,
     })
 }
-

@@ -76,7 +76,13 @@ pub fn run_loop(
     let mut diagnoses = Vec::new();
     for _ in 0..MAX_ROUNDS {
         progress("diagnosing");
-        let d = diagnose_observations(observations.clone(), skipped.clone(), &current, opts, progress)?;
+        let d = diagnose_observations(
+            observations.clone(),
+            skipped.clone(),
+            &current,
+            opts,
+            progress,
+        )?;
         let steps: Vec<(Vec<String>, super::engine::Fitted)> = d
             .path
             .iter()

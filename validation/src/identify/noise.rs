@@ -147,7 +147,7 @@ pub(crate) fn pool_ratios(samples: &[ColourSample], queries: &[f64]) -> Vec<f64>
     queries
         .iter()
         .map(|&w| {
-            if good.is_empty() || !(w > 0.0) {
+            if good.is_empty() || w.is_nan() || w <= 0.0 {
                 return 1.0;
             }
             let mut by_dist: Vec<(f64, &ColourSample)> = good

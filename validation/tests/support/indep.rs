@@ -143,7 +143,11 @@ pub const PAIRS: [(&str, &str); 8] = [
 /// Triples, cycled.
 pub const TRIPLES: [(&str, &str, &str); 3] = [
     ("time_delay", "backlash", "sensor_drift"),
-    ("coulomb_friction", "sensor_lowpass", "operating_point_dependence"),
+    (
+        "coulomb_friction",
+        "sensor_lowpass",
+        "operating_point_dependence",
+    ),
     ("structural_mode", "time_delay", "sensor_drift"),
 ];
 
