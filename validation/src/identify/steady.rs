@@ -202,13 +202,26 @@ pub(crate) fn detect_steady<const S: usize>(
         var[k] = v[v.len() / 2];
     }
     // A one-period window's phasor with a trend fitted alongside: the sin and cos columns
-    // have about n/2 of weight each, the trend takes a little more of it.
+    // have about n/2 of weight each, the trend takes a little more of it. Coloured noise (a
+    // sensor's slow wander) scatters the windows' phasors more than the residual variance
+    // says: the scatter of the last half's windows about their mean is measured too (the
+    // distance of a complex Gaussian from its mean has median 1.177 sigma), and the larger
+    // of the two decides.
     let n_win = per;
+    let mut sig = [0.0; S];
+    for k in 0..S {
+        let mut d: Vec<f64> = wins[nwin - tail..]
+            .iter()
+            .map(|w| (w[k].0 - fin[k]).norm())
+            .collect();
+        d.sort_by(f64::total_cmp);
+        let empirical = if d.len() >= 4 { d[d.len() / 2] / 1.177 } else { 0.0 };
+        sig[k] = (2.5 * var[k] / n_win).sqrt().max(empirical);
+    }
     let mut first = 0usize;
     for (i, w) in wins.iter().enumerate() {
         let ok = (0..S).all(|k| {
-            let sig = (2.5 * var[k] / n_win).sqrt();
-            (w[k].0 - fin[k]).norm() <= 4.5 * sig + 2e-3 * fin[k].norm() + 1e-12
+            (w[k].0 - fin[k]).norm() <= 4.5 * sig[k] + 2e-3 * fin[k].norm() + 1e-12
         });
         if !ok {
             first = i + 1;
@@ -244,6 +257,27 @@ mod tests {
                 0.004 * (omega * t).sin() + 0.003 * (-t / tau).exp() + drift * t + noise * u
             })
             .collect()
+    }
+
+    #[test]
+    fn coloured_noise_does_not_hide_the_steady_state() {
+        // First-order noise with a 0.5 s correlation time (0.3 mm) on top of the white part:
+        // one-period windows at 0.8 rad/s scatter far more than white noise of the same
+        // residual variance would.
+        let (dt, omega) = (0.005, 0.8);
+        let n = (40.0 / dt) as usize;
+        let mut y = record(n, omega, dt, 1.5, 0.0, 3e-4);
+        let pole = (-dt / 0.5f64).exp();
+        let mut e = 0.0;
+        for (k, v) in y.iter_mut().enumerate() {
+            let u = ((k as f64 * 78.233).sin() * 12345.678).fract() - 0.5;
+            e = pole * e + 3e-4 * (12.0f64 * (1.0 - pole * pole)).sqrt() * u;
+            *v += e;
+        }
+        let st = detect_steady([&y[..]], omega, dt).unwrap();
+        let t0 = st.start as f64 * dt;
+        assert!(t0 <= 15.0, "steady state from {t0} s");
+        assert!(st.periods >= 3, "{} periods", st.periods);
     }
 
     #[test]

@@ -1,0 +1,59 @@
+//! One out-of-sample draw (zmp-indep-sim) through the user's loop, with every diagnosis in
+//! words: a development aid (`cargo run --release -p zmp-validation --example indep_draw --
+//! SEED SCENARIO`, e.g. `1 single:time_delay`).
+
+use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions};
+use zmp_validation::campaign::read_campaign;
+use zmp_validation::diagnose::iterate::run_loop;
+use zmp_validation::diagnose::DiagnoseOptions;
+use zmp_validation::identify::IdentifyOptions;
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let seed: u64 = args.first().map_or(Ok(1), |s| s.parse())?;
+    let scenario = args.get(1).map_or("clean", |s| s.as_str());
+    let design = Design::default();
+    let robot = draw_with(
+        seed,
+        &scenario.parse().map_err(|e| anyhow::anyhow!("{e}"))?,
+        &design,
+        &DrawOptions {
+            coupling_form: Some(CouplingForm::Pendulum),
+        },
+    );
+    for h in &robot.hidden {
+        println!("hidden: {h:?}");
+    }
+    let dir = tempfile::tempdir()?;
+    let camp_dir = dir.path().join("campaign");
+    write_campaign(&robot, &design, &camp_dir, true)?;
+    if let Some(keep) = args.get(2) {
+        write_campaign(&robot, &design, std::path::Path::new(keep), true)?;
+        std::fs::write(format!("{keep}.truth.json"), robot.to_json())?;
+    }
+    let camp = read_campaign(&camp_dir)?;
+    let t = std::time::Instant::now();
+    let r = run_loop(
+        &camp,
+        None,
+        &IdentifyOptions::default(),
+        &DiagnoseOptions::default(),
+        &|_| {},
+    )?;
+    for w in &r.identification.warnings {
+        println!("identify: {w}");
+    }
+    for d in &r.diagnoses {
+        print!("{}", d.to_text());
+    }
+    println!(
+        "found {:?}; explained {}; {:.2}x -> {:.2}x the floor; {:.1} s",
+        r.found,
+        r.explained,
+        r.identified_error / r.noise_floor,
+        r.final_error / r.noise_floor,
+        t.elapsed().as_secs_f64()
+    );
+    println!("final model:\n{}", r.final_model.to_toml());
+    Ok(())
+}
