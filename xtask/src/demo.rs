@@ -25,7 +25,7 @@ struct Summary {
     bode: PathBuf,
     closed_loop: PathBuf,
     closed_loop_x: Metrics,
-    diagnosis_loop: crate::diagnose::LoopSummary,
+    diagnosis_loop: crate::loop_cmd::DemoLoop,
 }
 
 #[derive(Serialize)]
@@ -254,7 +254,7 @@ pub fn demo(out: &Path, _force: bool, json: bool) -> Result<()> {
     }
 
     say("5. The promise: compare, diagnose the missing effect, add it, watch the error fall");
-    let lp = crate::diagnose::demo_loop(&spec, &out.join("loop"), quiet)?;
+    let lp = crate::loop_cmd::demo_loop(&out.join("loop"), quiet)?;
     crate::twin::demo_step(out, quiet)?;
     crate::demo_com::demo_step(out, quiet)?;
 

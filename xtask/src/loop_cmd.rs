@@ -224,3 +224,65 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         still_failing,
     })
 }
+
+/// What the demo's loop did.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct DemoLoop {
+    /// The hidden effects (catalogue names), the simulator's seed and where its truth is.
+    pub hidden: Vec<String>,
+    pub seed: u64,
+    pub truth: PathBuf,
+    pub summary: LoopSummary,
+}
+
+/// Seed of the demo's independently simulated robot.
+pub const DEMO_SEED: u64 = 7;
+
+/// The demo's loop: a robot drawn by `zmp-indep-sim` (a simulator that shares no code with
+/// the project's models: its own mechanics, stick-slip, saturation) with a servo latency and
+/// a drifting ZMP sensor hidden, always saturating like the seed's robot; its campaign is
+/// written by that simulator and the loop sees only the folder.
+pub fn demo_loop(dir: &Path, quiet: bool) -> Result<DemoLoop> {
+    use zmp_indep_sim::{draw_with, write_campaign, Design, DrawOptions, Scenario};
+    std::fs::create_dir_all(dir)?;
+    let design = Design::default();
+    let scenario: Scenario = "pair:time_delay,sensor_drift"
+        .parse()
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let robot = draw_with(DEMO_SEED, &scenario, &design, &DrawOptions::default());
+    let camp_dir = dir.join("campaign");
+    let pb = progress_bar(1, "simulating (zmp-indep-sim)", quiet);
+    write_campaign(&robot, &design, &camp_dir, true)?;
+    pb.finish_and_clear();
+    // The truth stays outside the campaign folder.
+    let truth = dir.join("truth.json");
+    zmp_validation::io::atomic_write(&truth, robot.to_json().as_bytes(), true)?;
+    let hidden: Vec<String> = robot.hidden.iter().map(|h| h.name.to_string()).collect();
+    if !quiet {
+        println!(
+            "   a robot from an independent simulator (zmp-indep-sim seed {DEMO_SEED}): {} hidden \
+             besides its acceleration limit; {} records -> {}",
+            hidden.join(" and "),
+            design.records().len(),
+            camp_dir.display()
+        );
+    }
+    let camp = read(&camp_dir, quiet)?;
+    let summary = run_loop(
+        &camp,
+        &LoopArgs {
+            campaign: &camp_dir,
+            model: None,
+            out: &dir.join("loop"),
+            force: true,
+            json: quiet,
+        },
+        quiet,
+    )?;
+    Ok(DemoLoop {
+        hidden,
+        seed: DEMO_SEED,
+        truth,
+        summary,
+    })
+}
