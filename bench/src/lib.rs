@@ -1,6 +1,7 @@
-//! Benchmarks of the real-time hot loop (see `README.md`): the models and inputs shared by the
-//! criterion bench `benches/realtime.rs` and the instruction-count binary
-//! `src/bin/realtime_count.rs`.
+//! What the benchmarks measure, shared by the criterion benches (`benches/`) and the
+//! instruction-count binaries (`src/bin/*_count.rs`) that `cargo xtask bench` runs under
+//! callgrind (see `README.md`): the real-time models and inputs, the reference identification
+//! campaign, and the small campaign of the identification and diagnosis counts.
 
 pub mod realtime {
     use std::f64::consts::PI;
@@ -113,8 +114,12 @@ rate = 1e-5          # m/s
     }
 }
 
+#[cfg(feature = "pipeline")]
+pub mod pipeline;
+
 /// The identification benchmark's campaign and pipeline, shared by the criterion bench
 /// `benches/identify.rs` and the instruction-count binary `src/bin/identify_count.rs`.
+#[cfg(feature = "pipeline")]
 pub mod identify {
     use std::path::{Path, PathBuf};
     use zmp_models::{Axis, Binding, EffectInstance, ModelSpec};
