@@ -5,7 +5,7 @@
 //!    MuJoCo rendering, valgrind).
 //! 2. The MuJoCo shared library, extracted from the official PyPI wheel.
 //! 3. A Python venv with FMPy (to validate and simulate exported FMUs),
-//!    numpy and matplotlib, all pinned.
+//!    numpy, matplotlib and pyarrow (the benches' numpy peer), all pinned.
 //!
 //! Idempotent. A marker file in the deps dir records a completed setup; when it
 //! matches the current pins, only cheap existence checks run (well under 1 s).
@@ -33,13 +33,15 @@ pub const APT_PACKAGES: &[&str] = &[
     "valgrind",
 ];
 
-/// Exact Python package pins for the venv (CPython >= 3.11). The first three
+/// Exact Python package pins for the venv (CPython >= 3.11). The first four
 /// are what the project uses; the rest are their dependencies, pinned too so
 /// that every machine gets the same environment.
 pub const PYTHON_PINS: &[&str] = &[
     "fmpy==0.3.32",
     "numpy==2.4.6",
     "matplotlib==3.11.2",
+    // The numpy identification peer of the benches reads CSV with pyarrow (bench/peers).
+    "pyarrow==26.0.1",
     // Transitive dependencies (from `pip freeze` of the three above).
     "attrs==26.1.0",
     "cmake==4.4.4",

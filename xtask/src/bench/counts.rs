@@ -3,8 +3,8 @@
 //! (`--toggle-collect`), pinned to one CPU so that every pool of the library runs one thread.
 //!
 //! Callgrind rather than gungraun (iai-callgrind's successor): gungraun 0.20 needs valgrind
-//! >= 3.20 and Debian 12, this project's machine, ships 3.19; callgrind itself is all the
-//! gate needs, and the count binaries stay plain programs that a person can run by hand.
+//! 3.20 or later and Debian 12, this project's machine, ships 3.19; callgrind itself is all
+//! the gate needs, and the count binaries stay plain programs that a person can run by hand.
 
 use anyhow::{anyhow, bail, Context, Result};
 use sha2::{Digest, Sha256};
