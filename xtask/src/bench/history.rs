@@ -272,12 +272,16 @@ pub fn latest_table(e: &Entry) -> String {
     for p in &e.peers {
         let _ = writeln!(
             s,
-            "| `{}`: {} | {} | {} | {:.1}× |",
+            "| `{}`: {} | {} | {} | {}× |",
             p.name,
             p.note,
             fmt_seconds(p.ours_s),
             fmt_seconds(p.peer_s),
-            p.ratio
+            if p.ratio < 10.0 {
+                format!("{:.2}", p.ratio)
+            } else {
+                format!("{:.1}", p.ratio)
+            }
         );
     }
     if !e.peers.iter().any(|p| p.name.starts_with("twin_step")) {
@@ -377,6 +381,9 @@ mod tests {
             assert!(t.contains(b.name), "{} missing from\n{t}", b.name);
         }
         assert!(t.contains("1268.9 per step") && t.contains("10.0 ns") && t.contains("20.0×"));
+        let mut close = e.clone();
+        close.peers[0].ratio = 0.985;
+        assert!(latest_table(&close).contains("0.98×") || latest_table(&close).contains("0.99×"));
         assert!(t.contains("twin_step/mujoco_python"), "{t}");
     }
 }
