@@ -163,25 +163,34 @@ fn cargo() -> OsString {
     std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into())
 }
 
-/// Builds the count binaries `bins` (release) and returns their paths by name. With `planted`,
-/// builds them with the planted regression of `Plant::step` and without the pipeline feature,
-/// so that only `zmp-models` and `zmp-bench` are recompiled.
+/// Builds the count binaries `bins` (release) and returns their paths by name.
+///
+/// Normally through `cargo test --workspace --release --no-run`: the count binaries are built
+/// as the binaries of zmp-bench's integration test, with the features the test step resolves,
+/// so after `cargo test --workspace --release` (CI's step before the gate) this rebuilds
+/// nothing (a `cargo build -p zmp-bench` would resolve other features of the shared
+/// dependencies and recompile zmp-models and zmp-validation). With `planted`, builds them with
+/// the planted regression of `Plant::step` and without the pipeline and FMU features, so that
+/// only `zmp-models` and `zmp-bench` are recompiled.
 pub fn build(bins: &BTreeSet<&str>, planted: bool) -> Result<HashMap<String, PathBuf>> {
     let mut cmd = Command::new(cargo());
-    cmd.current_dir(repo_root())
-        .args(["build", "--release", "-p", "zmp-bench"])
-        .arg("--message-format=json-render-diagnostics")
-        .stderr(Stdio::inherit());
+    cmd.current_dir(repo_root()).stderr(Stdio::inherit());
     if planted {
+        cmd.args(["build", "--release", "-p", "zmp-bench"]);
         cmd.args(["--no-default-features", "--features", "planted-regression"]);
+        for b in bins {
+            cmd.args(["--bin", b]);
+        }
+    } else {
+        cmd.args(["test", "--workspace", "--release", "--no-run"]);
     }
-    for b in bins {
-        cmd.args(["--bin", b]);
-    }
+    cmd.arg("--message-format=json-render-diagnostics");
     crate::ci::strip_cargo_run_env(&mut cmd);
+    // The workspace's test build includes the MuJoCo twin crate.
+    crate::env::apply_env(&mut cmd, &crate::env::prereqs());
     let out = cmd
         .output()
-        .context("running cargo build for the count binaries")?;
+        .context("running cargo to build the count binaries")?;
     if !out.status.success() {
         bail!("cargo build of the count binaries failed ({})", out.status);
     }
@@ -190,7 +199,10 @@ pub fn build(bins: &BTreeSet<&str>, planted: bool) -> Result<HashMap<String, Pat
         let Ok(msg) = serde_json::from_str::<serde_json::Value>(line) else {
             continue;
         };
-        if msg["reason"] != "compiler-artifact" {
+        if msg["reason"] != "compiler-artifact"
+            || msg["profile"]["test"] == true
+            || msg["target"]["kind"] != serde_json::json!(["bin"])
+        {
             continue;
         }
         if let (Some(name), Some(exe)) =
