@@ -48,12 +48,13 @@ enum Cmd {
     /// identification, FMPy per-step cost), appends the results to bench/history.jsonl with the
     /// commit, draws bench/trends/*.svg and regenerates the table of bench/README.md.
     Bench {
-        /// Only the instruction counts and the gate (what `cargo xtask ci` runs; about two
-        /// minutes): no criterion, no history.
+        /// Only the instruction counts and the gate (what `cargo xtask ci` runs; about half a
+        /// minute after `cargo test --workspace --release`): no criterion, no history.
         #[arg(long)]
         counts_only: bool,
         /// Write this run's counts, with this machine's fingerprint, as the new baseline
-        /// instead of gating (after a deliberate change of speed, toolchain or dependencies).
+        /// instead of gating (after a deliberate change of speed, toolchain or dependencies;
+        /// implies --counts-only).
         #[arg(long)]
         save_baseline: bool,
         /// Only this bench (repeatable): plant_step/all_effects, plant_step/paper_nominal,
