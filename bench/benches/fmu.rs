@@ -225,6 +225,38 @@ fn fmpy_overhead() {
             100.0 * r["overhead"].as_f64().unwrap()
         );
     }
+    // Into the history of `cargo xtask bench`: the plant FMU against the trivial pass-through
+    // FMU, both in FMPy's slave loop (ratio = trivial / plant: 1 means the physics costs nothing
+    // next to FMPy's own per-step cost), and FMPy's step against ours through the Rust importer.
+    let slave = &v["slave"];
+    let (plant_s, trivial_s) = (
+        slave["plant_us_per_step"].as_f64().unwrap() * 1e-6,
+        slave["trivial_us_per_step"].as_f64().unwrap() * 1e-6,
+    );
+    zmp_bench::report_peer(
+        "fmu_step/fmpy_plant_vs_trivial",
+        plant_s,
+        trivial_s,
+        "step",
+        "plant FMU against the trivial FMU, both in FMPy's FMU2Slave loop (min of 7 rounds of \
+         20,000 steps); ratio = trivial / plant",
+    );
+    let estimates =
+        target_dir().join("criterion/fmu_step_rust_importer/plant_fmi2/new/estimates.json");
+    if let Some(ours_ns) = std::fs::read_to_string(&estimates)
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|v| v["median"]["point_estimate"].as_f64())
+    {
+        zmp_bench::report_peer(
+            "fmu_step/rust_importer_vs_fmpy",
+            ours_ns * 1e-9,
+            plant_s,
+            "step",
+            "plant FMU step through the Rust `fmi` importer (criterion median) against the same \
+             FMU in FMPy's FMU2Slave loop",
+        );
+    }
 }
 
 criterion_group!(benches, rust_importer);

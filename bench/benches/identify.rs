@@ -1,7 +1,7 @@
 //! The whole identification pipeline (read the campaign from disk + identify) on the reference
 //! virtual SILO2 campaign (168 records, ~680k rows, ~25 MB of CSV, acceleration limit
-//! 1.2 m/s2), and the same pipeline written plainly with numpy (`bench/peers/identify_numpy.py`)
-//! timed in the same run. The peer runs with `$ZMP_PYTHON` (default
+//! 1.2 m/s2), and the same pipeline written with numpy and pyarrow (`bench/peers/identify_numpy.py`:
+//! multithreaded CSV reading, vectorised fits, 2 threads like ours) timed in the same run. The peer runs with `$ZMP_PYTHON` (default
 //! `~/.cache/zmp-toolkit/venv/bin/python`); it is skipped with a note if that is missing.
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
@@ -46,6 +46,7 @@ fn bench(c: &mut Criterion) {
         match std::process::Command::new(&py)
             .arg(&script)
             .arg(&dir)
+            .args(["--threads", "2"])
             .output()
         {
             Ok(o) if o.status.success() => {
@@ -73,6 +74,14 @@ fn bench(c: &mut Criterion) {
         println!(
             "identify/read_and_fit_168: ours {ours:.3} s, numpy peer {p:.3} s, ratio {:.1}x",
             p / ours
+        );
+        zmp_bench::report_peer(
+            "identify_168/numpy_vs_library",
+            ours,
+            p,
+            "run",
+            "library read + identify (in process) against the numpy/pyarrow peer (read + fit), \
+             2 threads each, medians of 15 and 3 interleaved",
         );
     }
 }

@@ -1,6 +1,7 @@
-//! Benchmarks of the real-time hot loop (see `README.md`): the models and inputs shared by the
-//! criterion bench `benches/realtime.rs` and the instruction-count binary
-//! `src/bin/realtime_count.rs`.
+//! What the benchmarks measure, shared by the criterion benches (`benches/`) and the
+//! instruction-count binaries (`src/bin/*_count.rs`) that `cargo xtask bench` runs under
+//! callgrind (see `README.md`): the real-time models and inputs, the reference identification
+//! campaign, and the small campaign of the identification and diagnosis counts.
 
 pub mod realtime {
     use std::f64::consts::PI;
@@ -113,8 +114,37 @@ rate = 1e-5          # m/s
     }
 }
 
+#[cfg(feature = "pipeline")]
+pub mod pipeline;
+
+/// Appends one peer comparison of a bench (a JSON line: `name`, `ours_s`, `peer_s`, `ratio` =
+/// peer / ours, `unit`, `note`) to the file `$ZMP_BENCH_RESULTS`, which `cargo xtask bench`
+/// collects into its history and table; does nothing when that variable is not set.
+pub fn report_peer(name: &str, ours_s: f64, peer_s: f64, unit: &str, note: &str) {
+    let Some(path) = std::env::var_os("ZMP_BENCH_RESULTS") else {
+        return;
+    };
+    let line = serde_json::json!({
+        "name": name, "ours_s": ours_s, "peer_s": peer_s, "ratio": peer_s / ours_s,
+        "unit": unit, "note": note,
+    });
+    use std::io::Write;
+    let written = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&path)
+        .and_then(|mut f| f.write_all(format!("{line}\n").as_bytes()));
+    if let Err(e) = written {
+        panic!(
+            "appending to ZMP_BENCH_RESULTS={}: {e}",
+            path.to_string_lossy()
+        );
+    }
+}
+
 /// The identification benchmark's campaign and pipeline, shared by the criterion bench
 /// `benches/identify.rs` and the instruction-count binary `src/bin/identify_count.rs`.
+#[cfg(feature = "pipeline")]
 pub mod identify {
     use std::path::{Path, PathBuf};
     use zmp_models::{Axis, Binding, EffectInstance, ModelSpec};

@@ -301,6 +301,8 @@ impl Plant {
             zmp[i] = run_chain(&mut self.sensor[i], jumped.then_some(z_start), z).1;
         }
         self.last_ref = end;
+        #[cfg(feature = "bench-planted-regression")]
+        planted_regression();
         self.last = PlantOutput {
             zmp,
             com,
@@ -422,3 +424,21 @@ impl Plant {
         tau
     }
 }
+
+/// Test-only extra work in [`Plant::step`] (feature `bench-planted-regression`): a chain of
+/// additions that the optimiser cannot remove, about 6 % of the all-effects step's instructions,
+/// for the test that the instruction-count gate of `cargo xtask bench` fails on it. Does not
+/// touch the plant's state or output.
+#[cfg(feature = "bench-planted-regression")]
+#[inline(never)]
+fn planted_regression() {
+    let mut w = 0.0_f64;
+    for k in 0..PLANTED_ADDITIONS {
+        w = std::hint::black_box(w + k as f64);
+    }
+    std::hint::black_box(w);
+}
+
+/// Iterations of [`planted_regression`]'s loop.
+#[cfg(feature = "bench-planted-regression")]
+const PLANTED_ADDITIONS: usize = 22;

@@ -1,6 +1,7 @@
 //! `cargo xtask ci`: what CI runs (via `.ci/run`), and what to run locally
-//! before pushing. Installs the prerequisites, then format check, clippy and
-//! the whole test suite, failing fast.
+//! before pushing. Installs the prerequisites, then format check, clippy,
+//! the whole test suite and the instruction-count gate of `cargo xtask bench`,
+//! failing fast.
 
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -30,8 +31,8 @@ const STEPS: &[(&str, &[&str])] = &[
     ("test", &["test", "--workspace", "--release"]),
 ];
 
-/// Run setup, then `cargo fmt --check`, `cargo clippy -D warnings` and
-/// `cargo test`, in that order, with the prerequisites' environment; stop at
+/// Run setup, then `cargo fmt --check`, `cargo clippy -D warnings`,
+/// `cargo test` and the instruction-count gate, in that order, with the prerequisites' environment; stop at
 /// the first failing step. Prints the elapsed time of each step at the end.
 pub fn ci() -> Result<()> {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
@@ -71,6 +72,20 @@ pub fn ci() -> Result<()> {
         }
     }
 
+    // The instruction-count gate (`cargo xtask bench --counts-only`): after the tests, whose
+    // release build it reuses.
+    eprintln!("\nci: ==> bench-gate: cargo xtask bench --counts-only");
+    let start = Instant::now();
+    let gate = crate::bench::bench(&crate::bench::BenchArgs {
+        counts_only: true,
+        ..Default::default()
+    });
+    timings.push(("bench-gate", start.elapsed(), gate.is_ok()));
+    if let Err(e) = gate {
+        print_timings(&timings);
+        return Err(e.context("ci: step `bench-gate` failed"));
+    }
+
     print_timings(&timings);
     eprintln!("ci: all steps passed");
     Ok(())
@@ -101,7 +116,7 @@ fn print_timings(timings: &[(&str, Duration, bool)]) {
     for (name, elapsed, ok) in timings {
         total += *elapsed;
         let verdict = if *ok { "ok" } else { "FAILED" };
-        eprintln!("  {name:<8} {:>9.1}s  {verdict}", elapsed.as_secs_f64());
+        eprintln!("  {name:<10} {:>9.1}s  {verdict}", elapsed.as_secs_f64());
     }
-    eprintln!("  {:<8} {:>9.1}s", "total", total.as_secs_f64());
+    eprintln!("  {:<10} {:>9.1}s", "total", total.as_secs_f64());
 }

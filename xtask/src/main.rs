@@ -1,5 +1,6 @@
 //! `cargo xtask <verb>`: the command line for users and CI.
 
+mod bench;
 mod calibrate;
 mod ci;
 mod demo;
@@ -34,8 +35,48 @@ enum Cmd {
         #[arg(long)]
         quiet: bool,
     },
-    /// What CI runs: setup, then cargo fmt --check, clippy -D warnings, test (release).
+    /// What CI runs: setup, then cargo fmt --check, clippy -D warnings, test (release), and the
+    /// instruction-count gate (`bench --counts-only`).
     Ci,
+    /// Speed of the hot paths and the commands, tracked (bench/README.md).
+    ///
+    /// Counts the instructions (callgrind, one thread) of the plant step, the controller step,
+    /// the plant FMU's doStep through the Rust importer, and the identification and diagnosis
+    /// of a small campaign, and gates them against bench/baseline.toml: more than 2 % more
+    /// instructions in a real-time loop (5 % elsewhere) fails, naming the bench and both
+    /// counts; a missing bench, a zero count, a baseline measured with another rustc, locked
+    /// dependencies, glibc or valgrind, or an improvement beyond the threshold (refresh the
+    /// baseline) is an error. Then runs the criterion benches (real-time steps, FMU, library
+    /// identification and diagnosis, and the identify/compare/diagnose commands as a user runs
+    /// them on the 168-record campaign) with their peers in the same run (numpy/pyarrow
+    /// identification, FMPy per-step cost), appends the results to bench/history.jsonl with the
+    /// commit, draws bench/trends/*.svg and regenerates the table of bench/README.md.
+    Bench {
+        /// Only the instruction counts and the gate (what `cargo xtask ci` runs; about half a
+        /// minute after `cargo test --workspace --release`): no criterion, no history.
+        #[arg(long)]
+        counts_only: bool,
+        /// Write this run's counts, with this machine's fingerprint, as the new baseline
+        /// instead of gating (after a deliberate change of speed, toolchain or dependencies;
+        /// implies --counts-only).
+        #[arg(long)]
+        save_baseline: bool,
+        /// Only this bench (repeatable): plant_step/all_effects, plant_step/paper_nominal,
+        /// controller_step, fmu_do_step/plant_fmi2, identify/small_campaign,
+        /// diagnose/small_campaign.
+        #[arg(long = "only", value_name = "BENCH")]
+        only: Vec<String>,
+        /// Baseline file (default bench/baseline.toml).
+        #[arg(long)]
+        baseline: Option<PathBuf>,
+        /// Test of the gate itself: build the real-time count binary with the test-only
+        /// feature that adds about 6 % instructions to the plant step (the gate must fail).
+        #[arg(long)]
+        planted_regression: bool,
+        /// Print the counts, the gate's verdicts and the wall-clock results as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// The main job on built-in data: a virtual SILO2 campaign, the model's Bode diagrams, the
     /// seed's closed-loop experiment, identification, the diagnosis loop and a short
     /// validation on the MuJoCo twin of SILO2, written to OUT (default out/demo).
@@ -311,6 +352,21 @@ fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Cmd::Setup { quiet } => setup::setup(quiet).map(|_| ()),
         Cmd::Ci => ci::ci(),
+        Cmd::Bench {
+            counts_only,
+            save_baseline,
+            only,
+            baseline,
+            planted_regression,
+            json,
+        } => bench::bench(&bench::BenchArgs {
+            counts_only: counts_only || save_baseline,
+            save_baseline,
+            only,
+            baseline,
+            planted_regression,
+            json,
+        }),
         Cmd::Demo { out, force, json } => demo::demo(&out, force, json),
         Cmd::CalibrateCom {
             out,

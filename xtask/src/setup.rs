@@ -5,7 +5,7 @@
 //!    MuJoCo rendering, valgrind).
 //! 2. The MuJoCo shared library, extracted from the official PyPI wheel.
 //! 3. A Python venv with FMPy (to validate and simulate exported FMUs),
-//!    numpy and matplotlib, all pinned.
+//!    numpy, matplotlib and pyarrow (the benches' numpy peer), all pinned.
 //!
 //! Idempotent. A marker file in the deps dir records a completed setup; when it
 //! matches the current pins, only cheap existence checks run (well under 1 s).
@@ -46,6 +46,8 @@ pub const PYTHON_PINS: &[&str] = &[
     "fmu-manipulation-toolbox==2.0",
     // MuJoCo's Python bindings: the speed peer of the twin step.
     "mujoco==3.17.0",
+    // The numpy identification peer of the benches reads CSV with pyarrow (bench/peers).
+    "pyarrow==26.0.1",
     // Transitive dependencies (from `pip freeze` of the packages above).
     "absl-py==2.5.1",
     "attrs==26.1.0",
