@@ -362,4 +362,3 @@ pub fn history_cmd(model: &Path, plot: Option<&Path>, force: bool, json: bool) -
     println!("waterfall -> {}", plot.display());
     Ok(())
 }
-

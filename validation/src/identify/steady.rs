@@ -215,14 +215,17 @@ pub(crate) fn detect_steady<const S: usize>(
             .map(|w| (w[k].0 - fin[k]).norm())
             .collect();
         d.sort_by(f64::total_cmp);
-        let empirical = if d.len() >= 4 { d[d.len() / 2] / 1.177 } else { 0.0 };
+        let empirical = if d.len() >= 4 {
+            d[d.len() / 2] / 1.177
+        } else {
+            0.0
+        };
         sig[k] = (2.5 * var[k] / n_win).sqrt().max(empirical);
     }
     let mut first = 0usize;
     for (i, w) in wins.iter().enumerate() {
-        let ok = (0..S).all(|k| {
-            (w[k].0 - fin[k]).norm() <= 4.5 * sig[k] + 2e-3 * fin[k].norm() + 1e-12
-        });
+        let ok =
+            (0..S).all(|k| (w[k].0 - fin[k]).norm() <= 4.5 * sig[k] + 2e-3 * fin[k].norm() + 1e-12);
         if !ok {
             first = i + 1;
         }
