@@ -38,7 +38,7 @@ fn main() -> anyhow::Result<()> {
         None,
         &IdentifyOptions::default(),
         &DiagnoseOptions::default(),
-        &|_| {},
+        &|what| eprintln!("{:7.1} s  {what}", t.elapsed().as_secs_f64()),
     )?;
     for w in &r.identification.warnings {
         println!("identify: {w}");

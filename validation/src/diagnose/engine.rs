@@ -33,6 +33,9 @@ pub const EXPLAINED_RATIO: f64 = 1.5;
 const ITERS_OWN: usize = 8;
 const ITERS_JOINT: usize = 20;
 const ITERS_FOLD: usize = 8;
+/// In-sample chi-square a servo candidate's own parameters must remove before its joint fit
+/// (see [`fit_screened`]): the held-out test asks for 30.
+const SCREEN_CHI2: f64 = 30.0;
 
 /// A fitted model and where it came from.
 #[derive(Debug, Clone)]
@@ -176,10 +179,31 @@ fn bandwidth_variants(spec: &ModelSpec) -> Vec<ModelSpec> {
 /// parameters with the pendulum and low-pass (servo candidates: their own alone, their
 /// describing functions are costly), then from the best start every parameter jointly.
 pub fn fit(effect: &str, starts: &[Start], obs: &[&Observation]) -> Option<Fitted> {
-    let costly = is_costly(effect);
+    fit_screened(effect, starts, obs, None)
+}
+
+/// [`fit`], except that a servo candidate whose own parameters, fitted alone, remove less
+/// than [`SCREEN_CHI2`] of `base_chi2` (the chi-square of the model it is added to) on the
+/// records it is fitted on is dropped before its costly joint fit: what cannot help in-sample
+/// with its own parameters will not pass the held-out test.
+pub fn fit_screened(
+    effect: &str,
+    starts: &[Start],
+    obs: &[&Observation],
+    base_chi2: Option<f64>,
+) -> Option<Fitted> {
+    let costly = is_costly(effect) || starts.first().is_some_and(|(s, _)| heavy_base(s));
     let mut all: Vec<Start> = Vec::new();
     for (s, f) in starts {
-        for v in bandwidth_variants(s) {
+        // Servo candidates change the servo's own response; their fits start from the
+        // low-pass as it is (the base has been refitted already), the cheap ones also from
+        // the variants that undo an absorbed delay or filter.
+        let variants = if costly {
+            vec![s.clone()]
+        } else {
+            bandwidth_variants(s)
+        };
+        for v in variants {
             all.push((v, f.clone()));
         }
     }
@@ -200,6 +224,9 @@ pub fn fit(effect: &str, starts: &[Start], obs: &[&Observation]) -> Option<Fitte
             fit_from(s, &frees, own, obs, ITERS_OWN)
         })
         .min_by(|a, b| a.cost.total_cmp(&b.cost))?;
+    if costly && base_chi2.is_some_and(|b| b - best.cost < SCREEN_CHI2) {
+        return None;
+    }
     let own: Vec<Free> = best.frees[..best.own].to_vec();
     let mut frees = own.clone();
     frees.extend(refit_frees(
@@ -207,7 +234,10 @@ pub fn fit(effect: &str, starts: &[Start], obs: &[&Observation]) -> Option<Fitte
         &own,
         Some(model_kind(effect)).filter(|k| *k != "pendulum"),
     ));
-    fit_from(&best.spec, &frees, own.len(), obs, ITERS_JOINT)
+    // Servo candidates simulate every record's describing function at every Jacobian column
+    // of a servo parameter: fewer joint iterations (their own parameters are converged).
+    let iters = if costly { ITERS_JOINT / 2 } else { ITERS_JOINT };
+    fit_from(&best.spec, &frees, own.len(), obs, iters)
         .filter(|f| f.cost <= best.cost)
         .or(Some(best))
 }
@@ -215,6 +245,13 @@ pub fn fit(effect: &str, starts: &[Start], obs: &[&Observation]) -> Option<Fitte
 /// Candidates whose describing functions come from simulation.
 pub fn is_costly(effect: &str) -> bool {
     matches!(effect, "coulomb_friction" | "acceleration_saturation")
+}
+
+/// A model whose every prediction simulates the servo (friction acts on every record; the
+/// saturation only on the records that reach the limit): any candidate added to it is fitted
+/// as carefully as a servo candidate.
+pub fn heavy_base(spec: &ModelSpec) -> bool {
+    spec.has("coulomb_friction")
 }
 
 /// Fits `frees` (the first `own` of them an effect's own) of `start` on `obs`.
@@ -286,7 +323,12 @@ pub fn cross_validate(name: &str, fitted: Fitted, obs: &[&Observation]) -> Score
         let refit = if fitted.frees.is_empty() {
             None
         } else {
-            fit_from(&fitted.spec, &fitted.frees, fitted.own, &train, ITERS_FOLD)
+            let iters = if is_costly(name) || heavy_base(&fitted.spec) {
+                ITERS_FOLD / 2
+            } else {
+                ITERS_FOLD
+            };
+            fit_from(&fitted.spec, &fitted.frees, fitted.own, &train, iters)
         };
         let spec = refit.as_ref().map_or(&fitted.spec, |f| &f.spec);
         let test: Vec<&Observation> = test_idx.iter().map(|&k| obs[k]).collect();
@@ -321,7 +363,14 @@ pub fn score_candidate(c: &Candidate, base: &ModelSpec, obs: &[&Observation]) ->
     if starts.is_empty() {
         return None;
     }
-    let fitted = fit(c.effect, &starts, obs)?;
+    let base_chi2 = if is_costly(c.effect) || heavy_base(base) {
+        predict(base, obs)
+            .ok()
+            .map(|p| obs.iter().zip(&p).map(|(o, pr)| chi2(o, pr)).sum::<f64>())
+    } else {
+        None
+    };
+    let fitted = fit_screened(c.effect, &starts, obs, base_chi2)?;
     Some(cross_validate(c.effect, fitted, obs))
 }
 

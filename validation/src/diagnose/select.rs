@@ -16,7 +16,8 @@
 //! masked by the other) and a pair is added when it passes and each of its effects adds
 //! significantly to the other.
 
-use super::engine::{score_candidates, Scored};
+use super::candidates::CATALOGUE;
+use super::engine::{addable, score_candidate, score_candidates, Scored};
 use super::measure::COMPONENTS;
 use super::observe::Observation;
 use zmp_models::ModelSpec;
@@ -155,13 +156,24 @@ pub fn search(
     let mut pairs_tried = Vec::new();
     let mut current = root.clone();
     let mut added: Vec<String> = Vec::new();
+    // Candidates that removed nothing on top of the root are not tried again on top of the
+    // structures after it (an effect absent from the data stays absent).
+    let mut useless: Vec<String> = Vec::new();
     while added.len() < MAX_EFFECTS && !stop(&current) {
         let base: &ModelSpec = &current.fitted.spec;
-        let children = score_candidates(base, obs, &added, threads, progress);
+        let mut exclude = added.clone();
+        exclude.extend(useless.iter().cloned());
+        let children = score_candidates(base, obs, &exclude, threads, progress);
         if steps.is_empty() {
             first_round = children.clone();
+            useless = children
+                .iter()
+                .filter(|c| c.chi2 >= current.chi2)
+                .map(|c| c.effect.clone())
+                .collect();
         }
         if let Some(best) = choose(&current, &children) {
+            progress(&format!("selected {}", best.effect));
             let g = gain(&current, best);
             added.push(best.effect.clone());
             steps.push(Step {
@@ -184,13 +196,21 @@ pub fn search(
         let pair_list: Vec<(usize, usize)> = (0..pool.len())
             .flat_map(|a| (a + 1..pool.len()).map(move |b| (a, b)))
             .collect();
+        progress(&format!(
+            "no single effect passes; pairs of {}",
+            pool.iter()
+                .map(|p| p.effect.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
         let results = crate::par::parallel_map(pair_list.len(), threads, |k| {
             let (a, b) = pair_list[k];
             let (first, second) = (pool[a], pool[b]);
-            let mut ex = added.clone();
-            ex.push(first.effect.clone());
-            let on_top = score_candidates(&first.fitted.spec, obs, &ex, 1, &|_| {});
-            on_top.into_iter().find(|s| s.effect == second.effect)
+            let c = CATALOGUE.iter().find(|c| c.effect == second.effect)?;
+            if !addable(c.effect, &first.fitted.spec) {
+                return None;
+            }
+            score_candidate(c, &first.fitted.spec, obs)
         });
         let mut best_pair: Option<(usize, Scored, Gain)> = None;
         for (k, r) in results.into_iter().enumerate() {
