@@ -9,10 +9,17 @@ fn main() {
         binding: Binding::Axis(Axis::X),
         servo: Some((30.0, 1.0)),
     };
-    for &(level, vs) in &[(0.05, 1e-4), (0.3, 1e-4), (1.0, 1e-4), (2.5, 1e-4), (1.0, 1e-3)] {
+    for &(level, vs) in &[
+        (0.05, 1e-4),
+        (0.3, 1e-4),
+        (1.0, 1e-4),
+        (2.5, 1e-4),
+        (1.0, 1e-3),
+    ] {
         for &omega in &[0.5, 2.0, 15.0] {
             clear_describing_function_cache();
-            let f: Box<dyn Effect> = (lookup("coulomb_friction").unwrap().build)(&ctx, &[level, vs]);
+            let f: Box<dyn Effect> =
+                (lookup("coulomb_friction").unwrap().build)(&ctx, &[level, vs]);
             let t = std::time::Instant::now();
             let g = f.frequency_response(omega, 0.003);
             println!(

@@ -244,6 +244,7 @@ pub static REGISTRY: &[&EffectInfo] = &[
     &crate::effects::uncertainty::INFO,
     &crate::effects::operating_point::INFO,
     &crate::effects::structural_mode::INFO,
+    &crate::effects::flexible_trunk::INFO,
     &crate::effects::sensor_lowpass::INFO,
     &crate::effects::sensor_drift::INFO,
 ];

@@ -413,6 +413,47 @@ fn coulomb_friction_shrinks_small_amplitudes_more_and_lags() {
 // ---------------------------------------------------------------------------------------------
 // structural_mode
 
+/// A mode carrying a share of the path: unit gain at rest, `1 - share` far above the mode, a
+/// resonance and an anti-resonance above it (at `omega_n / sqrt(1 - share)` for light damping),
+/// and the time simulation agrees with the frequency response.
+#[test]
+fn structural_mode_with_a_share_keeps_the_rest_rigid() {
+    let base = plant("");
+    let (wn, zeta, share) = (20.0, 0.03, 0.4);
+    let mut p = plant(&format!(
+        "[structural_mode]\nomega_n = {wn}\nzeta = {zeta}\nshare = {share}\n"
+    ));
+    let ratio = |p: &zmp_models::Plant, w: f64| {
+        p.frequency_response(w)[0][0] / base.frequency_response(w)[0][0]
+    };
+    assert!((ratio(&p, 1e-3).norm() - 1.0).abs() < 1e-6);
+    assert!((ratio(&p, 100.0 * wn).norm() - (1.0 - share)).abs() < 1e-3);
+    // The anti-resonance: the smallest gain between 1 and 3 omega_n.
+    let (mut low, mut at) = (f64::INFINITY, 0.0);
+    for k in 0..=7000 {
+        let w = wn * (1.0 + 2.0 * k as f64 / 7000.0);
+        let r = ratio(&p, w).norm();
+        if r < low {
+            (low, at) = (r, w);
+        }
+    }
+    let expected = wn / (1.0 - share).sqrt();
+    assert!(
+        (at / expected - 1.0).abs() < 0.02,
+        "anti-resonance at {at}, expected {expected}"
+    );
+    assert!(low < 0.2, "anti-resonance depth {low}");
+    // The stepper agrees with the frequency response at the anti-resonance and at the mode.
+    for w in [expected, wn] {
+        let s = p.simulated_response(Axis::X, w, 0.001)[0];
+        let f = p.frequency_response(w)[0][0];
+        assert!(
+            (s - f).norm() <= 2e-3 * f.norm().max(1e-3),
+            "{w}: {s} vs {f}"
+        );
+    }
+}
+
 /// A lightly damped mode peaks near `omega_n` with a gain of about `1/(2 zeta)`.
 #[test]
 fn structural_mode_peaks_at_omega_n_with_gain_one_over_two_zeta() {

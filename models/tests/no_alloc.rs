@@ -74,6 +74,10 @@ db_dy = -0.3
 [structural_mode]
 omega_n = 60.0
 zeta = 0.05
+[flexible_trunk]
+omega_n = 40.0
+zeta = 0.05
+share = 0.3
 [sensor_lowpass]
 cutoff = 100.0
 [sensor_drift]

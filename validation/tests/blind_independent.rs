@@ -11,8 +11,11 @@
 
 #[path = "support/indep.rs"]
 mod indep;
+#[path = "support/readme.rs"]
+mod readme;
 
 use indep::{line, markdown, run_case, scores, suite, Case, Outcome};
+use readme::readme_section;
 use zmp_validation::par::parallel_map;
 
 /// Held-out seeds: never looked at while the diagnosis was developed.
@@ -87,28 +90,6 @@ fn check(outcomes: &[Outcome]) -> Vec<String> {
         ));
     }
     bad
-}
-
-/// Replaces (or checks) the README section between `<!-- {tag} -->` markers.
-fn readme_section(tag: &str, text: &str) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../README.md");
-    let readme = std::fs::read_to_string(&path).unwrap();
-    let open = format!("<!-- {tag} -->\n");
-    let close = format!("<!-- /{tag} -->");
-    let (Some(a), Some(b)) = (readme.find(&open), readme.find(&close)) else {
-        panic!("README.md has no {open:?} ... {close:?} section");
-    };
-    let current = &readme[a + open.len()..b];
-    if std::env::var("ZMP_UPDATE_README").is_ok_and(|v| v == "1") {
-        let new = format!("{}{open}{text}{}", &readme[..a], &readme[b..]);
-        std::fs::write(&path, new).unwrap();
-    } else {
-        assert_eq!(
-            current, text,
-            "README.md's {tag} section is not what this run measured; run the test with \
-             ZMP_UPDATE_README=1 to write it"
-        );
-    }
 }
 
 #[test]

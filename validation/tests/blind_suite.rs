@@ -2,8 +2,12 @@
 //! pairs, and none), a model identified from each, and the diagnosis must name what is hidden.
 //! Prints the confusion matrix (markdown) and writes it to the test's temporary folder.
 
+#[path = "support/readme.rs"]
+mod readme;
+
 use std::collections::BTreeMap;
 use zmp_validation::blind::{run, suite, Outcome, EFFECTS};
+use zmp_validation::par::parallel_map;
 
 const PER_EFFECT: usize = 4;
 const PAIRS: usize = 6;
@@ -56,11 +60,14 @@ fn blind_suite_names_the_hidden_effects() {
     let draws = suite(1000, PER_EFFECT, PAIRS, CLEAN);
     assert!(draws.len() >= 40);
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let mut outcomes = Vec::new();
-    for d in draws {
+    // Draws in parallel, each on one thread.
+    let outcomes: Vec<Outcome> = parallel_map(draws.len(), threads, |k| {
+        let d = draws[k].clone();
         let desc = d.description.clone();
         let effects = d.effects.clone();
-        let o = run(d, threads).unwrap_or_else(|e| panic!("draw {effects:?} ({desc}): {e:#}"));
+        run(d, 1).unwrap_or_else(|e| panic!("draw {effects:?} ({desc}): {e:#}"))
+    });
+    for o in &outcomes {
         println!(
             "{:<45} -> {:<28} selected {:?}; error {:.4} floor {:.4}{}  [{}]",
             format!("{:?}", o.draw.effects),
@@ -74,7 +81,6 @@ fn blind_suite_names_the_hidden_effects() {
             )),
             o.draw.description
         );
-        outcomes.push(o);
     }
     let singles: Vec<&Outcome> = outcomes
         .iter()
@@ -122,8 +128,7 @@ fn blind_suite_names_the_hidden_effects() {
         after.iter().copied().fold(0.0, f64::max),
     );
     println!("{summary}");
-    let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("blind_confusion.md");
-    std::fs::write(&out, &summary).unwrap();
+    readme::readme_section("blind-insample", &summary);
     assert!(
         named as f64 >= 0.9 * singles.len() as f64,
         "single effects named first: {named}/{}",

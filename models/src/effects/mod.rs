@@ -4,6 +4,7 @@
 pub mod acceleration_saturation;
 pub mod backlash;
 pub mod coulomb_friction;
+pub mod flexible_trunk;
 pub mod operating_point;
 pub mod pendulum;
 pub mod sensor_drift;

@@ -221,7 +221,7 @@ pub fn refit_structure(
     model: &ModelSpec,
     opts: &DiagnoseOptions,
 ) -> Result<Option<Augmented>, DiagnoseError> {
-    let own = structure_frees(model, None);
+    let own = structure_frees(model, &[]);
     if own.is_empty() {
         return Ok(None);
     }

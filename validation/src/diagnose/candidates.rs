@@ -340,15 +340,26 @@ fn sensor_lowpass(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     out
 }
 
+/// The `k`-th of `n` starting frequencies of a structural mode: log-spaced from a sixth of the
+/// campaign's highest frequency to two and a half times it (a mode above the band still bends
+/// its phase and magnitude there; one far below it would be a drift, not a mode).
+fn mode_start(r: &DataRange, k: usize, n: usize) -> f64 {
+    let lo = (r.omega_max / 6.0).max(r.omega_min);
+    let hi = 2.5 * r.omega_max;
+    lo * (hi / lo).powf((k as f64 + 0.5) / n as f64)
+}
+
 fn structural_mode(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
-    let mut out = Vec::new();
+    let mut out = flexible_trunk(spec, r);
     let n = 6;
     for bindings in axis_variants(r) {
         for k in 0..n {
-            let wm =
-                r.omega_min * (1.5 * r.omega_max / r.omega_min).powf((k as f64 + 0.5) / n as f64);
+            let wm = mode_start(r, k, n);
             for zeta in [0.05, 0.3] {
-                let s = with(spec, "structural_mode", &bindings, &[wm, zeta]);
+                // A flexible link may carry only part of the moving mass: the share starts
+                // high and is fitted.
+                let share = 0.8;
+                let s = with(spec, "structural_mode", &bindings, &[wm, zeta, share]);
                 out.push((
                     s,
                     vec![
@@ -371,10 +382,93 @@ fn structural_mode(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
                             0.005,
                             0.5,
                         ),
+                        Free::new(
+                            "structural_mode",
+                            bindings.clone(),
+                            "share",
+                            share,
+                            0.05,
+                            1.0,
+                        ),
                     ],
                 ));
             }
         }
+    }
+    out
+}
+
+/// The flexible-trunk form of a structural mode: per input axis, a share of the mass on a
+/// lightly damped link inside the servo loop.
+fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
+    let mut out = Vec::new();
+    let n = 5;
+    for bindings in axis_variants(r) {
+        for k in 0..n {
+            let wm = mode_start(r, k, n);
+            let (zeta, share) = (0.08, 0.4);
+            let s = with(spec, "flexible_trunk", &bindings, &[wm, zeta, share, 0.3]);
+            out.push((
+                s,
+                trunk_frees(std::slice::from_ref(&bindings), wm, zeta, share, r),
+            ));
+        }
+    }
+    // Both axes, each with its own link (two trunk planes need not ring alike).
+    if r.axes_excited[0] && r.axes_excited[1] {
+        for k in 0..n {
+            let wm = mode_start(r, k, n);
+            let (zeta, share) = (0.08, 0.4);
+            let s = with(spec, "flexible_trunk", &AXES, &[wm, zeta, share, 0.3]);
+            let each: Vec<Vec<Binding>> = AXES.iter().map(|b| vec![*b]).collect();
+            out.push((s, trunk_frees(&each, wm, zeta, share, r)));
+        }
+    }
+    out
+}
+
+/// The free parameters of a flexible trunk at each binding group.
+fn trunk_frees(
+    groups: &[Vec<Binding>],
+    wm: f64,
+    zeta: f64,
+    share: f64,
+    r: &DataRange,
+) -> Vec<Free> {
+    let mut out = Vec::new();
+    for b in groups {
+        out.push(Free::new(
+            "flexible_trunk",
+            b.clone(),
+            "omega_n",
+            wm,
+            0.5 * r.omega_min,
+            3.0 * r.omega_max,
+        ));
+        out.push(Free::new(
+            "flexible_trunk",
+            b.clone(),
+            "zeta",
+            zeta,
+            0.005,
+            0.5,
+        ));
+        out.push(Free::new(
+            "flexible_trunk",
+            b.clone(),
+            "share",
+            share,
+            0.05,
+            0.95,
+        ));
+        out.push(Free::new(
+            "flexible_trunk",
+            b.clone(),
+            "drive",
+            0.3,
+            0.0,
+            0.8,
+        ));
     }
     out
 }
@@ -486,10 +580,26 @@ pub static CATALOGUE: &[Candidate] = &[
     },
 ];
 
-/// The model-file effect a catalogue name adds (`cross_coupling` frees pendulum terms).
+/// The model-file effect a catalogue name adds (`cross_coupling` frees pendulum terms); the
+/// first of [`model_kinds`].
 pub fn model_kind(effect: &str) -> &str {
+    model_kinds(effect).first().copied().unwrap_or(effect)
+}
+
+/// Every model-file effect a catalogue name may add: a structural mode is either on the ZMP
+/// path (`structural_mode`) or a flexible link of the trunk inside the servo loop
+/// (`flexible_trunk`); the diagnosis tries both and names either `structural_mode`.
+pub fn model_kinds(effect: &str) -> &[&str] {
     match effect {
-        "cross_coupling" => "pendulum",
-        e => e,
+        "cross_coupling" => &["pendulum"],
+        "structural_mode" => &["structural_mode", "flexible_trunk"],
+        "time_delay" => &["time_delay"],
+        "backlash" => &["backlash"],
+        "coulomb_friction" => &["coulomb_friction"],
+        "acceleration_saturation" => &["acceleration_saturation"],
+        "sensor_lowpass" => &["sensor_lowpass"],
+        "operating_point_dependence" => &["operating_point_dependence"],
+        "sensor_drift" => &["sensor_drift"],
+        _ => &[],
     }
 }

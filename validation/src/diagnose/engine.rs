@@ -16,7 +16,7 @@
 //! others. Each fold's fit (started from the all-records fit) predicts the other fold.
 
 use super::candidates::{
-    apply, core_frees, model_kind, Candidate, DataRange, Free, Start, CATALOGUE,
+    apply, core_frees, model_kinds, Candidate, DataRange, Free, Start, CATALOGUE,
 };
 use super::lm::{minimise, Bounded};
 use super::measure::{aggregate, chi2, predict, score, whitened, RecordScore, COMPONENTS};
@@ -103,14 +103,18 @@ fn fit_from(
 
 /// The free parameters of every effect `spec` names beyond the core (its declared ranges),
 /// except those of `skip_kind`: what a candidate refits besides its own and the core.
-pub fn structure_frees(spec: &ModelSpec, skip_kind: Option<&str>) -> Vec<Free> {
+pub fn structure_frees(spec: &ModelSpec, skip_kinds: &[&str]) -> Vec<Free> {
     let mut out = Vec::new();
     for e in &spec.effects {
-        if e.info.core || e.info.kind == "uncertainty" || Some(e.info.kind) == skip_kind {
+        if e.info.core || e.info.kind == "uncertainty" || skip_kinds.contains(&e.info.kind) {
             continue;
         }
         for (k, p) in e.info.params.iter().enumerate() {
-            let v = e.values[k];
+            // A regularisation is the law's shape, not something the data fit.
+            if p.name == "v_s" {
+                continue;
+            }
+            let Some(&v) = e.values.get(k) else { continue };
             let (min, max) = (p.min, p.max);
             if !(min.is_finite() && max.is_finite()) || max <= min {
                 continue;
@@ -132,8 +136,8 @@ pub fn structure_frees(spec: &ModelSpec, skip_kind: Option<&str>) -> Vec<Free> {
 
 /// Everything a structure refits besides a candidate's `own` parameters: the model's other
 /// effects and the core (pendulum terms it has, the tracking low-pass).
-pub fn refit_frees(spec: &ModelSpec, own: &[Free], skip_kind: Option<&str>) -> Vec<Free> {
-    let mut out: Vec<Free> = structure_frees(spec, skip_kind);
+pub fn refit_frees(spec: &ModelSpec, own: &[Free], skip_kinds: &[&str]) -> Vec<Free> {
+    let mut out: Vec<Free> = structure_frees(spec, skip_kinds);
     out.extend(core_frees(spec, true));
     // A candidate that frees pendulum terms (cross-coupling) owns them.
     out.retain(|f| {
@@ -232,7 +236,11 @@ pub fn fit_screened(
     frees.extend(refit_frees(
         &best.spec,
         &own,
-        Some(model_kind(effect)).filter(|k| *k != "pendulum"),
+        &model_kinds(effect)
+            .iter()
+            .copied()
+            .filter(|k| *k != "pendulum")
+            .collect::<Vec<_>>(),
     ));
     // Servo candidates simulate every record's describing function at every Jacobian column
     // of a servo parameter: fewer joint iterations (their own parameters are converged).
@@ -382,7 +390,7 @@ pub fn addable(effect: &str, base: &ModelSpec) -> bool {
             .iter()
             .any(|p| base.value("pendulum", Binding::Global, p) == Some(0.0));
     }
-    !base.has(model_kind(effect))
+    !model_kinds(effect).iter().any(|k| base.has(k))
 }
 
 /// Candidates of the catalogue that can be added to `base` (and are not in `exclude`), scored
@@ -434,7 +442,7 @@ pub fn refit_all(base: &ModelSpec, obs: &[&Observation]) -> Option<Fitted> {
             fit_from(s, &frees, 0, obs, ITERS_OWN)
         })
         .min_by(|a, b| a.cost.total_cmp(&b.cost))?;
-    let frees = refit_frees(&best.spec, &[], None);
+    let frees = refit_frees(&best.spec, &[], &[]);
     fit_from(&best.spec, &frees, 0, obs, ITERS_JOINT)
         .filter(|f| f.cost <= best.cost)
         .or(Some(best))
@@ -473,7 +481,9 @@ pub fn without_effect(s: &Scored) -> ModelSpec {
         let zeros = vec![0.0; s.fitted.own];
         apply(&mut spec, &s.fitted.frees[..s.fitted.own], &zeros);
     } else {
-        spec.remove(model_kind(&s.effect));
+        for k in model_kinds(&s.effect) {
+            spec.remove(k);
+        }
     }
     spec
 }

@@ -2,7 +2,7 @@
 //! floor, where the model fails, forward selection of catalogued effects on held-out records,
 //! the verdict and the evidence.
 
-use super::candidates::{model_kind, CATALOGUE};
+use super::candidates::CATALOGUE;
 use super::cells::{cells, channel_summary, Cell};
 use super::engine::{
     control, distinct_omegas, own_parameters, without_effect, Scored, EXPLAINED_RATIO,
@@ -245,8 +245,8 @@ fn channels_changed(
         .collect();
     if out.is_empty() {
         // From where the effect sits.
-        let kind = model_kind(effect);
-        for e in spec.effects.iter().filter(|e| e.info.kind == kind) {
+        let kinds = super::candidates::model_kinds(effect);
+        for e in spec.effects.iter().filter(|e| kinds.contains(&e.info.kind)) {
             if let Binding::Axis(ax) = e.binding {
                 for ch in Channel::ALL {
                     let hit = match e.info.site {

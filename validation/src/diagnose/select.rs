@@ -46,11 +46,16 @@ pub struct Gain {
     /// in the acting records.
     pub total_fraction: f64,
     pub local_fraction: f64,
+    /// Whether the held-out error measure (what the user reads) falls too: a structure that
+    /// trades a better chi-square on the quiet records for a worse fit of the others is not
+    /// an explanation.
+    pub error_falls: bool,
 }
 
 impl Gain {
     pub fn significant(&self) -> bool {
         self.delta_chi2 >= CHI2_MIN
+            && self.error_falls
             && (self.total_fraction >= MIN_TOTAL_FRACTION
                 || self.local_fraction >= MIN_LOCAL_FRACTION)
     }
@@ -87,6 +92,7 @@ pub fn gain(parent: &Scored, child: &Scored) -> Gain {
             0.0
         },
         acting,
+        error_falls: child.error < parent.error,
     }
 }
 
