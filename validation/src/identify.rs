@@ -792,6 +792,34 @@ pub fn identify_with_progress(
             harmonic_only.push(c);
         }
     }
+    // Saturation is monotone in the acceleration demand: a record that deviates from the
+    // linear model while a record of its axis with a larger demand does not is not saturated
+    // (a misfit of the seed's structure, e.g. a delay swallowed by the low-pass, deviates
+    // anywhere). Such records (below 70 % of the largest linear demand: a mild clip hides in
+    // the noise) stay in the fit.
+    let demand_of = |q: &RecordFit| {
+        q.amplitude * q.omega * q.omega * fit::lowpass(q.omega, lm.params[8], lm.params[9]).norm()
+    };
+    let linear_top = |axis: Axis| -> f64 {
+        records
+            .iter()
+            .filter(|q| q.excluded.is_none() && q.excited == axis && !saturated.contains(&q.index))
+            .map(demand_of)
+            .fold(0.0, f64::max)
+    };
+    let linear_tops = [linear_top(Axis::X), linear_top(Axis::Y)];
+    let (kept, not_monotone): (Vec<usize>, Vec<usize>) = saturated
+        .iter()
+        .partition(|&&c| demand_of(&records[c]) > 0.7 * linear_tops[records[c].excited.index()]);
+    if !not_monotone.is_empty() {
+        warnings.push(format!(
+            "{}: off the linear model but with smaller acceleration demands than linear records \
+             of their axis: not saturation; kept in the fit",
+            name_records(&not_monotone)
+        ));
+        harmonic_only.extend(not_monotone);
+        saturated = kept;
+    }
     if !harmonic_only.is_empty() {
         let (l2, e2, n2) = fit_without(&saturated)?;
         lm = l2;
@@ -805,7 +833,7 @@ pub fn identify_with_progress(
     for &c in &saturated {
         records[c].excluded = Some(reason::SATURATED.to_string());
     }
-    let p = lm.params;
+    let mut p = lm.params;
     let mut saturation = Saturation {
         records: saturated.clone(),
         harmonic_only,
@@ -821,17 +849,53 @@ pub fn identify_with_progress(
                 .demanded_acceleration
                 .push((c, r.amplitude * r.omega * r.omega * h));
         }
-        let (limit, se) = estimate_limit(&records, &saturated, &p, &factors, worker_count(opts));
-        saturation.limit = limit;
-        saturation.limit_stderr = se;
-        warnings.push(format!(
-            "{}: acceleration saturation detected{}; left out of the linear fit",
-            name_records(&saturated),
-            match limit {
-                Some(l) => format!(" (limit about {l:.3} m/s2)"),
-                None => String::new(),
+        let floor = saturated
+            .iter()
+            .map(|&c| linear_tops[records[c].excited.index()])
+            .fold(f64::INFINITY, f64::min);
+        let (limit, se, at_floor) = estimate_limit(
+            &records,
+            &saturated,
+            &p,
+            &factors,
+            floor,
+            worker_count(opts),
+        );
+        if at_floor {
+            // The limit's describing function does not reproduce these records' change: it
+            // would need a limit below the demands of records that stay linear. Not
+            // saturation as the seed's structure has it; the records go back into the fit.
+            warnings.push(format!(
+                "{}: odd harmonics and a gain change that an acceleration limit does not \
+                 reproduce (it would need a limit below the demands of linear records); kept \
+                 in the fit, no limit estimated",
+                name_records(&saturated)
+            ));
+            for &c in &saturated {
+                records[c].excluded = None;
             }
-        ));
+            saturation.harmonic_only.extend(saturated.iter().copied());
+            saturation.records.clear();
+            saturation.demanded_acceleration.clear();
+            let pts = points(&records, &factors, &[]);
+            let (l2, e2, n2) = pendulum_fit(&pts, (wn0, z0), opts.fix_bandwidth)?;
+            lm = l2;
+            bw_est = e2;
+            bw_note = n2;
+            p = lm.params;
+            saturated.clear();
+        } else {
+            saturation.limit = limit;
+            saturation.limit_stderr = se;
+            warnings.push(format!(
+                "{}: acceleration saturation detected{}; left out of the linear fit",
+                name_records(&saturated),
+                match limit {
+                    Some(l) => format!(" (limit about {l:.3} m/s2)"),
+                    None => String::new(),
+                }
+            ));
+        }
     }
     let mut delay_alternative = None;
     if lm.dof > 0 && lm.chi2 / lm.dof as f64 > POOR_FIT {
@@ -1091,8 +1155,9 @@ fn estimate_limit(
     sat: &[usize],
     p: &[f64; NP],
     factors: &[[Complex64; 2]],
+    linear_demand: f64,
     threads: usize,
-) -> (Option<f64>, Option<f64>) {
+) -> (Option<f64>, Option<f64>, bool) {
     let info = zmp_models::lookup("acceleration_saturation").expect("registered effect");
     let h = zmp_models::DEFAULT_STEP;
     let ctx = BuildContext {
@@ -1109,7 +1174,7 @@ fn estimate_limit(
         .collect();
     let top = demand.iter().cloned().fold(0.0, f64::max);
     if top.is_nan() || top <= 0.0 {
-        return (None, None);
+        return (None, None, false);
     }
     // Distinct (omega, amplitude) pairs share a describing function.
     let mut keys: Vec<(f64, f64)> = Vec::new();
@@ -1177,9 +1242,10 @@ fn estimate_limit(
     // Brent's minimisation over log(limit), to within 1e-4 (relative) of the limit: each
     // evaluation is a long saturated simulation, and parabolic steps need fewer of them than
     // golden sections alone.
-    let (x, c0) = brent_minimise((0.05 * top).ln(), (1.2 * top).ln(), 5e-5, 60, |x| {
-        chi2(x.exp(), true)
-    });
+    // The limit lies near or above the demands of the axis's records that stay linear (a
+    // mild clip deviates less than the noise).
+    let lo = (0.05 * top).max(0.7 * linear_demand.min(top));
+    let (x, c0) = brent_minimise(lo.ln(), (1.2 * top).ln(), 5e-5, 60, |x| chi2(x.exp(), true));
     let l = x.exp();
     // Standard error from the curvature of chi-square, scaled by the reduced chi-square (the
     // two side evaluations at once).
@@ -1195,7 +1261,9 @@ fn estimate_limit(
     } else {
         None
     };
-    (Some(l), se)
+    // A minimum on the search's lower end: the data ask for a limit below the linear demands.
+    let at_floor = linear_demand.is_finite() && linear_demand > 0.0 && l <= 1.01 * lo;
+    (Some(l), se, at_floor)
 }
 
 /// Brent's method: a minimum of `f` on `[a, b]` to within about `2 tol` (absolute), and `f`

@@ -18,8 +18,10 @@ use indep::{line, markdown, run_case, scores, suite, Case, Outcome};
 use readme::readme_section;
 use zmp_validation::par::parallel_map;
 
-/// Held-out seeds: never looked at while the diagnosis was developed.
-const HELD_OUT_FIRST_SEED: u64 = 900_000;
+/// Held-out seeds: never looked at while the diagnosis was developed. (The first held-out
+/// range, from 900000, was spent: its first run stopped on seed 900000, which was then
+/// examined and led to two fixes, the delay's range and saturation's monotone demand.)
+const HELD_OUT_FIRST_SEED: u64 = 910_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
@@ -93,6 +95,7 @@ fn check(outcomes: &[Outcome]) -> Vec<String> {
 }
 
 #[test]
+#[ignore = "60 draws, 20-40 minutes on 2 cores: run by hand with ZMP_UPDATE_README=1 (cargo test --release -p zmp-validation --test blind_independent held_out -- --ignored); it writes the README's table"]
 fn held_out_blind_suite_on_an_independent_simulator() {
     // 27 singles (9 effects x 3), 12 pairs, 3 triples, 10 clean, 8 outside: 60 draws.
     let cases = suite(HELD_OUT_FIRST_SEED, 3, 12, 3, 10, 2);

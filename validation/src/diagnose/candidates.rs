@@ -219,13 +219,14 @@ fn one_param(
 }
 
 fn time_delay(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
-    let tmax = (1.5 / r.omega_max).min(0.45);
+    // Up to 3 rad of phase at the highest frequency (150 ms at 20 rad/s).
+    let tmax = (3.0 / r.omega_max).min(0.45);
     one_param(
         spec,
         r,
         "time_delay",
         "delay",
-        &[0.1 / r.omega_max, 0.5 / r.omega_max],
+        &[0.1 / r.omega_max, 0.5 / r.omega_max, 1.5 / r.omega_max],
         0.0,
         tmax,
     )

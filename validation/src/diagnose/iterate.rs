@@ -74,6 +74,11 @@ pub fn run_loop(
     let mut found: Vec<String> = Vec::new();
     let mut versions = Vec::new();
     let mut diagnoses = Vec::new();
+    // The model was fitted to this campaign: no check that it is the right robot.
+    let opts = &DiagnoseOptions {
+        scale_check: false,
+        ..opts.clone()
+    };
     for _ in 0..MAX_ROUNDS {
         progress("diagnosing");
         let d = diagnose_observations(

@@ -39,6 +39,11 @@ pub struct DiagnoseOptions {
     pub model_path: String,
     pub threads: usize,
     pub max_effects: usize,
+    /// Refuse a model off by 10x or more on a diagonal channel (another robot, units, swapped
+    /// axes). Off only where the model was just identified from this very campaign (the
+    /// loop): a model fitted to the data is the right robot however badly the seed's
+    /// structure fits it (a long delay swallowed by the low-pass can flip the sign of `a`).
+    pub scale_check: bool,
 }
 
 impl Default for DiagnoseOptions {
@@ -48,6 +53,7 @@ impl Default for DiagnoseOptions {
             model_path: "model.toml".into(),
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
             max_effects: MAX_EFFECTS,
+            scale_check: true,
         }
     }
 }
@@ -195,7 +201,7 @@ pub fn check_inputs(
         model: opts.model_path.clone(),
         message: e.to_string(),
     })?;
-    for axis in Axis::BOTH {
+    for axis in Axis::BOTH.into_iter().filter(|_| opts.scale_check) {
         let j = axis.index();
         let mut q: Vec<f64> = obs
             .iter()
@@ -569,12 +575,19 @@ impl Diagnosis {
             }
         ));
         s.push_str(&format!(
-            "  error {:.4} ({:.1}x the noise floor {:.4}); with the pendulum and bandwidth refitted: {:.4} (held-out)\n",
+            "  error {:.4} ({:.1}x the noise floor {:.4})",
             self.baseline_error,
             self.baseline_error / f,
             f,
-            self.refit_error
         ));
+        // No refit when the model already explains the data.
+        if self.refit_error.is_finite() {
+            s.push_str(&format!(
+                "; with the pendulum and bandwidth refitted: {:.4} (held-out)",
+                self.refit_error
+            ));
+        }
+        s.push('\n');
         let verdict = match self.verdict.as_str() {
             "none" => "none: the model explains the data to the noise floor".to_string(),
             "unexplained" => {

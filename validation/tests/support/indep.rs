@@ -64,6 +64,8 @@ pub struct Outcome {
     /// Short description of the truth.
     pub truth: String,
     pub seconds: f64,
+    /// The loop's error when it stopped on one (a failure of the draw, never right).
+    pub error: Option<String>,
 }
 
 impl Outcome {
@@ -95,6 +97,9 @@ impl Outcome {
 
     /// Right by the rules in the module docs.
     pub fn right(&self) -> bool {
+        if self.error.is_some() {
+            return false;
+        }
         if !self.in_catalogue {
             return !self.explained;
         }
@@ -111,7 +116,7 @@ impl Outcome {
 
     /// Within 2x the noise floor and explained after the loop.
     pub fn closed(&self) -> bool {
-        self.explained && self.final_ratio <= 2.0
+        self.error.is_none() && self.explained && self.final_ratio <= 2.0
     }
 }
 
@@ -233,7 +238,7 @@ pub fn run_case(case: &Case, dir: &Path) -> anyhow::Result<Outcome> {
         threads: Some(1),
         ..IdentifyOptions::default()
     };
-    let r = run_loop(&camp, None, &iopts, &opts, &|_| {})?;
+    let r = run_loop(&camp, None, &iopts, &opts, &|_| {});
     let _ = std::fs::remove_dir_all(&camp_dir);
     let hidden: Vec<String> = robot.hidden.iter().map(|h| h.name.to_string()).collect();
     let in_catalogue = robot.hidden.iter().all(|h| h.in_catalogue);
@@ -243,16 +248,32 @@ pub fn run_case(case: &Case, dir: &Path) -> anyhow::Result<Outcome> {
         .map(|h| format!("{}{}", h.name, if h.visible { "" } else { " (invisible)" }))
         .collect::<Vec<_>>()
         .join(", ");
-    Ok(Outcome {
-        case: case.clone(),
-        hidden,
-        in_catalogue,
-        found: r.found.clone(),
-        explained: r.explained,
-        identified_ratio: r.identified_error / r.noise_floor,
-        final_ratio: r.final_error / r.noise_floor,
-        truth,
-        seconds: t.elapsed().as_secs_f64(),
+    let seconds = t.elapsed().as_secs_f64();
+    Ok(match r {
+        Ok(r) => Outcome {
+            case: case.clone(),
+            hidden,
+            in_catalogue,
+            found: r.found.clone(),
+            explained: r.explained,
+            identified_ratio: r.identified_error / r.noise_floor,
+            final_ratio: r.final_error / r.noise_floor,
+            truth,
+            seconds,
+            error: None,
+        },
+        Err(e) => Outcome {
+            case: case.clone(),
+            hidden,
+            in_catalogue,
+            found: Vec::new(),
+            explained: false,
+            identified_ratio: f64::NAN,
+            final_ratio: f64::NAN,
+            truth,
+            seconds,
+            error: Some(e.to_string()),
+        },
     })
 }
 
@@ -263,10 +284,10 @@ pub fn line(o: &Outcome) -> String {
         o.case.seed,
         o.case.scenario,
         o.found.join(", "),
-        if o.explained {
-            "explained"
-        } else {
-            "unexplained"
+        match (&o.error, o.explained) {
+            (Some(e), _) => format!("error: {e}"),
+            (None, true) => "explained".into(),
+            (None, false) => "unexplained".into(),
         },
         o.identified_ratio,
         o.final_ratio,
@@ -351,8 +372,11 @@ pub fn markdown(title: &str, outcomes: &[Outcome]) -> String {
         .filter(|e| !IN_STRUCTURE.contains(e))
         .map(|e| e.to_string())
         .collect();
-    cols.extend(["none".into(), "unexplained".into()]);
+    cols.extend(["none".into(), "unexplained".into(), "error".into()]);
     let col_of = |o: &Outcome| -> String {
+        if o.error.is_some() {
+            return "error".into();
+        }
         match o.first_named() {
             Some(f) => f.to_string(),
             None if o.explained => "none".into(),
