@@ -26,7 +26,11 @@ fn main() -> anyhow::Result<()> {
     for w in &ident.warnings {
         println!("identify: {w}");
     }
-    let d = diagnose(&camp, &ident.model, &DiagnoseOptions::default(), &|_| {})?;
+    let d = diagnose(&camp, &ident.model, &DiagnoseOptions::default(), &|w| {
+        if std::env::var("ZMP_VERBOSE").is_ok() {
+            eprintln!("  {w}")
+        }
+    })?;
     print!("{}", d.to_text());
     println!("tried: {:?}", d.tried);
     println!("{:.1} s", t.elapsed().as_secs_f64());

@@ -18,10 +18,12 @@ use indep::{line, markdown, run_case, scores, suite, Case, Outcome};
 use readme::readme_section;
 use zmp_validation::par::parallel_map;
 
-/// Held-out seeds: never looked at while the diagnosis was developed. (The first held-out
-/// range, from 900000, was spent: its first run stopped on seed 900000, which was then
-/// examined and led to two fixes, the delay's range and saturation's monotone demand.)
-const HELD_OUT_FIRST_SEED: u64 = 910_000;
+/// Held-out seeds: never looked at while the diagnosis was developed. Ranges spent: from
+/// 900000 (its first run stopped on seed 900000, which was then examined: the delay's range,
+/// saturation's monotone demand); from 910000 (run once, singles 18/21, pairs 11/12, clean
+/// 10/10, outside 8/8, closed 22/52; its summary lines, not its draws, were seen before the
+/// last changes: the limit at its floor, the error rule and the swap in the search).
+const HELD_OUT_FIRST_SEED: u64 = 920_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 

@@ -14,7 +14,8 @@
 //! is added (a simpler effect wins a near tie), up to [`MAX_EFFECTS`]. When no single effect
 //! passes, the best few are paired (two effects acting together, each of which alone is
 //! masked by the other) and a pair is added when it passes and each of its effects adds
-//! significantly to the other.
+//! significantly to the other. Then one swap pass: each effect but the last is taken out and
+//! the others' best replacement for it tried (see [`swap`]).
 
 use super::candidates::CATALOGUE;
 use super::engine::{addable, score_candidate, score_candidates, Scored};
@@ -105,8 +106,9 @@ pub fn complexity(effect: &str) -> usize {
     }
 }
 
-/// Among children that pass against `parent`, the best (lowest held-out chi-square), except
-/// that a simpler one wins a near tie: its held-out chi-square within [`CHI2_MIN`] of the
+/// Among children that pass against `parent`, the best (lowest held-out chi-square, or the
+/// lowest held-out error when that is half the chi-square best's or less), except that a
+/// simpler one wins a near tie: its held-out chi-square within [`CHI2_MIN`] of the
 /// best's, or within a twentieth of it when both are far from the noise (then the models'
 /// own imperfections, not the noise, decide such differences).
 pub fn choose<'a>(parent: &Scored, children: &'a [Scored]) -> Option<&'a Scored> {
@@ -114,7 +116,17 @@ pub fn choose<'a>(parent: &Scored, children: &'a [Scored]) -> Option<&'a Scored>
         .iter()
         .filter(|c| gain(parent, c).significant())
         .collect();
-    let best = *passing.iter().min_by(|a, b| a.chi2.total_cmp(&b.chi2))?;
+    let mut best = *passing.iter().min_by(|a, b| a.chi2.total_cmp(&b.chi2))?;
+    // Far from the noise the chi-square is decided by the few records with the least noise;
+    // a candidate that leaves half the error (the scale-free measure, every record alike) of
+    // the chi-square's best explains more of the data.
+    if let Some(e) = passing
+        .iter()
+        .filter(|c| c.error <= 0.5 * best.error)
+        .min_by(|a, b| a.error.total_cmp(&b.error))
+    {
+        best = e;
+    }
     let slack = CHI2_MIN.max(0.05 * best.chi2);
     passing
         .iter()
@@ -253,9 +265,81 @@ pub fn search(
         });
         current = scored;
     }
+    if added.len() >= 2 && steps.iter().all(|s| s.added.len() == 1) {
+        if let Some((new_steps, new_added)) = swap(root, &added, &steps, obs, threads, progress) {
+            steps = new_steps;
+            added = new_added;
+        }
+    }
+    debug_assert_eq!(
+        added.len(),
+        steps.iter().map(|s| s.added.len()).sum::<usize>()
+    );
     Search {
         steps,
         first_round,
         pairs_tried,
     }
+}
+
+/// The swap pass of the search: with two or more effects added one at a time, an early choice
+/// may have stood in for an effect that shows only once the others are in (a flexible mode
+/// mimicking a sensor low-pass next to a play). Each added effect but the last (chosen given
+/// all the others) is taken out, the others are refitted from the root in their order, and
+/// every other candidate is tried in its place; one that scores better held-out by at least
+/// [`CHI2_MIN`], or a simpler one within the tie slack of [`choose`], takes its place. At most
+/// one swap. Returns the new steps and effects.
+fn swap(
+    root: &Scored,
+    added: &[String],
+    steps: &[Step],
+    obs: &[&Observation],
+    threads: usize,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Option<(Vec<Step>, Vec<String>)> {
+    let current = &steps.last()?.scored;
+    for removed in &added[..added.len() - 1] {
+        let others: Vec<&String> = added.iter().filter(|e| *e != removed).collect();
+        let mut chain: Vec<Scored> = Vec::new();
+        for e in &others {
+            let base = chain.last().unwrap_or(root);
+            let c = CATALOGUE.iter().find(|c| c.effect == e.as_str())?;
+            chain.push(score_candidate(c, &base.fitted.spec, obs)?);
+        }
+        let base = chain.last().unwrap_or(root);
+        let children = score_candidates(&base.fitted.spec, obs, added, threads, progress);
+        let slack = CHI2_MIN.max(0.05 * current.chi2);
+        if let Some(b) = children.iter().min_by(|a, b| a.chi2.total_cmp(&b.chi2)) {
+            progress(&format!(
+                "in place of {removed}: {} (held-out chi-square {:.0} against {:.0})",
+                b.effect, b.chi2, current.chi2
+            ));
+        }
+        let Some(best) = children
+            .iter()
+            .filter(|c| {
+                c.chi2 < current.chi2 - CHI2_MIN
+                    || (complexity(&c.effect) < complexity(removed)
+                        && c.chi2 <= current.chi2 + slack)
+            })
+            .min_by(|a, b| a.chi2.total_cmp(&b.chi2))
+        else {
+            continue;
+        };
+        progress(&format!("{} replaces {removed}", best.effect));
+        chain.push(best.clone());
+        let mut new_steps = Vec::new();
+        let mut prev = root;
+        for s in &chain {
+            new_steps.push(Step {
+                added: vec![s.effect.clone()],
+                scored: s.clone(),
+                gain: gain(prev, s),
+            });
+            prev = s;
+        }
+        let new_added = chain.iter().map(|s| s.effect.clone()).collect();
+        return Some((new_steps, new_added));
+    }
+    None
 }
