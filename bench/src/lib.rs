@@ -33,6 +33,11 @@ db_dy = -0.3
 omega_n = 60.0       # rad/s
 zeta = 0.05
 
+[flexible_trunk]
+omega_n = 40.0       # rad/s
+zeta = 0.05
+share = 0.3
+
 [sensor_lowpass]
 cutoff = 100.0       # rad/s
 
