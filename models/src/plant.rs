@@ -439,6 +439,7 @@ fn planted_regression() {
     std::hint::black_box(w);
 }
 
-/// Iterations of [`planted_regression`]'s loop.
+/// Iterations of [`planted_regression`]'s loop (38: about 5 % of the all-effects step with
+/// `flexible_trunk` in it; 22 gave 2.9 %, 30 gave 3.9 %, measured by `xtask/tests/bench_gate.rs`).
 #[cfg(feature = "bench-planted-regression")]
-const PLANTED_ADDITIONS: usize = 22;
+const PLANTED_ADDITIONS: usize = 38;
