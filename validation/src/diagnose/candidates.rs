@@ -381,7 +381,7 @@ fn structural_mode(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
                             "zeta",
                             zeta,
                             0.005,
-                            0.5,
+                            MODE_ZETA_MAX,
                         ),
                         Free::new(
                             "structural_mode",
@@ -428,6 +428,21 @@ fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     out
 }
 
+/// Upper bound of a structural mode's damping ratio in the fit.
+const MODE_ZETA_MAX: f64 = 0.5;
+
+/// Whether a fitted candidate is the effect it names. A structural mode (either form) whose
+/// damping ratio ends at its cap is the data asking for a well-damped second-order filter,
+/// which is the servo low-pass's shape, not a ringing mode: it bends the response to absorb
+/// a misfit the catalogue does not name, and must not be reported as a resonance.
+pub fn plausible(frees: &[Free]) -> bool {
+    !frees.iter().any(|f| {
+        matches!(f.kind, "structural_mode" | "flexible_trunk")
+            && f.param == "zeta"
+            && f.bounds.value >= 0.98 * MODE_ZETA_MAX
+    })
+}
+
 /// The free parameters of a flexible trunk at each binding group.
 fn trunk_frees(
     groups: &[Vec<Binding>],
@@ -452,7 +467,7 @@ fn trunk_frees(
             "zeta",
             zeta,
             0.005,
-            0.5,
+            MODE_ZETA_MAX,
         ));
         out.push(Free::new(
             "flexible_trunk",

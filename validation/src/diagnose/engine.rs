@@ -16,7 +16,7 @@
 //! others. Each fold's fit (started from the all-records fit) predicts the other fold.
 
 use super::candidates::{
-    apply, core_frees, model_kinds, Candidate, DataRange, Free, Start, CATALOGUE,
+    apply, core_frees, model_kinds, plausible, Candidate, DataRange, Free, Start, CATALOGUE,
 };
 use super::lm::{minimise, Bounded};
 use super::measure::{aggregate, chi2, predict, score, whitened, RecordScore, COMPONENTS};
@@ -227,6 +227,7 @@ pub fn fit_screened(
             }
             fit_from(s, &frees, own, obs, ITERS_OWN)
         })
+        .filter(|f| plausible(&f.frees[..f.own]))
         .min_by(|a, b| a.cost.total_cmp(&b.cost))?;
     if costly && base_chi2.is_some_and(|b| b - best.cost < SCREEN_CHI2) {
         return None;
@@ -246,7 +247,7 @@ pub fn fit_screened(
     // of a servo parameter: fewer joint iterations (their own parameters are converged).
     let iters = if costly { ITERS_JOINT / 2 } else { ITERS_JOINT };
     fit_from(&best.spec, &frees, own.len(), obs, iters)
-        .filter(|f| f.cost <= best.cost)
+        .filter(|f| f.cost <= best.cost && plausible(&f.frees[..f.own]))
         .or(Some(best))
 }
 

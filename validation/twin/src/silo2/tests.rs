@@ -216,25 +216,43 @@ fn corner_sensor_zmp_is_mujocos_centre_of_pressure_and_the_com_at_rest() {
 fn identified_pendulum_matches_the_twins_mass_properties() {
     let (_, s) = short_run();
     let row = |n: &str| s.parameters.iter().find(|p| p.name == n).unwrap();
-    // Tolerances (README, "Identified against predicted"): 2 % on a, 5 % on b against the
-    // multibody + servo prediction. The prediction leaves out the stance compliance (leg servos
-    // and soft contacts); the budget measures it at up to +3.5 % of the sagittal ZMP response at
-    // 6 rad/s, which the omega^2 coefficient b absorbs.
+    // Tolerances (README, "Identified against predicted"). The identified model must agree
+    // with the multibody + servo prediction within its own uncertainty (3 standard errors:
+    // the short campaign's five frequencies give about 2 % on a). The model after the
+    // diagnosis loop, which adds what the seed's structure lacks (the stance compliance of
+    // the leg servos and soft contacts), must agree within 2 % on a and 5 % on b: the loop
+    // brings the pendulum back to the physics, not only the error to the floor.
     for n in ["a11", "a22"] {
         let r = row(n);
-        assert!((r.identified / r.servo - 1.0).abs() < 0.02, "{r:?}");
+        assert!(
+            (r.identified - r.servo).abs() < 3.0 * r.identified_stderr,
+            "{r:?}"
+        );
+    }
+    // The identified b carries the stance compliance the seed's structure has no place for
+    // (the budget measures it at up to +8.2 % of the sagittal response at 10 rad/s, which the
+    // omega^2 coefficient absorbs): within 8 % before the loop.
+    for n in ["b11", "b22"] {
+        let r = row(n);
+        assert!((r.identified / r.servo - 1.0).abs() < 0.08, "{r:?}");
+    }
+    for n in ["a11", "a22"] {
+        let r = row(n);
+        let after = r.after_loop.expect("the loop ran");
+        assert!((after / r.servo - 1.0).abs() < 0.02, "{r:?}");
     }
     for n in ["b11", "b22"] {
         let r = row(n);
-        assert!((r.identified / r.servo - 1.0).abs() < 0.05, "{r:?}");
+        let after = r.after_loop.expect("the loop ran");
+        assert!((after / r.servo - 1.0).abs() < 0.05, "{r:?}");
         // The seed's eq. 15, (z_c - ZMP_z)/g with the whole robot's CoM height, describes a
         // robot that sways as one point mass; on a robot that moves only its trunk the same
         // equations give the trunk's centre of percussion. The identified b must stand in that
-        // ratio to eq. 15's value (within the same 5 %).
+        // ratio to eq. 15's value (within 8 %: the stance compliance is in it).
         let ratio = r.identified / r.seed;
         let predicted_ratio = r.servo / r.seed;
         assert!(predicted_ratio > 2.0, "{r:?}");
-        assert!((ratio / predicted_ratio - 1.0).abs() < 0.05, "{r:?}");
+        assert!((ratio / predicted_ratio - 1.0).abs() < 0.08, "{r:?}");
     }
     // No coupling in the twin's upright geometry: a12, a21 within 1 %, b12, b21 within 1 % of b.
     for n in ["a12", "a21"] {
