@@ -215,6 +215,9 @@ pub struct SteadyComponents {
     pub colour_raw: [(f64, f64); 2],
     /// Middle frequency of the near-zero bins, rad/s.
     pub zero_band_omega: f64,
+    /// Every bin of the colour estimate, per output: `(frequency rad/s, power over the
+    /// residual variance)`, pooled over the campaign by frequency.
+    pub colour_bins: [Vec<(f64, f64)>; 2],
     /// The campaign's pooled colour factors at this record's frequency and near zero
     /// (1 for white noise).
     pub colour: [(f64, f64); 2],
@@ -584,6 +587,14 @@ pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> Rec
             (ratio(1, local[1].near_omega), ratio(1, local[1].near_zero)),
             (ratio(2, local[2].near_omega), ratio(2, local[2].near_zero)),
         ],
+        colour_bins: [1, 2].map(|j| {
+            local[j]
+                .near_bins
+                .iter()
+                .chain(local[j].zero_bins.iter())
+                .map(|&(f, p)| (f, ratio(j, p)))
+                .collect()
+        }),
         colour: [(1.0, 1.0); 2],
         inv_diag_h1: hf.inv_diag_h1,
         inv_diag_trend: hf.inv_diag_trend,
@@ -632,26 +643,25 @@ pub fn analyse_records(
 /// variances follow the noise where each record sees it.
 pub fn pool_colour(records: &mut [RecordFit], relative_floor: f64) {
     use noise::{pool_ratios, ColourSample};
-    let bins_near = 2 * noise::BINS;
     for i in 0..2 {
-        let near: Vec<ColourSample> = records
-            .iter()
-            .filter_map(|r| r.components.as_ref())
-            .map(|c| ColourSample {
-                omega: c.omega,
-                ratio: c.colour_raw[i].0,
-                bins: bins_near,
-            })
-            .collect();
-        let zero: Vec<ColourSample> = records
-            .iter()
-            .filter_map(|r| r.components.as_ref())
-            .map(|c| ColourSample {
-                omega: c.zero_band_omega,
-                ratio: c.colour_raw[i].1,
-                bins: noise::BINS,
-            })
-            .collect();
+        // Every bin of every record, at its own frequency; a bin both beside the excitation
+        // and near zero counts once.
+        let mut samples: Vec<ColourSample> = Vec::new();
+        for c in records.iter().filter_map(|r| r.components.as_ref()) {
+            let res = 2.0 * std::f64::consts::PI / (c.t1 - c.t0).max(1e-9);
+            let mut seen: Vec<f64> = Vec::new();
+            for &(w, ratio) in &c.colour_bins[i] {
+                if seen.iter().any(|s| (s - w).abs() < 0.25 * res) {
+                    continue;
+                }
+                seen.push(w);
+                samples.push(ColourSample {
+                    omega: w,
+                    ratio,
+                    bins: 1,
+                });
+            }
+        }
         let q_near: Vec<f64> = records
             .iter()
             .map(|r| r.components.as_ref().map_or(f64::NAN, |c| c.omega))
@@ -664,8 +674,8 @@ pub fn pool_colour(records: &mut [RecordFit], relative_floor: f64) {
                     .map_or(f64::NAN, |c| c.zero_band_omega)
             })
             .collect();
-        let f_near = pool_ratios(&near, &q_near);
-        let f_zero = pool_ratios(&zero, &q_zero);
+        let f_near = pool_ratios(&samples, &q_near);
+        let f_zero = pool_ratios(&samples, &q_zero);
         for (k, r) in records.iter_mut().enumerate() {
             let Some(c) = r.components.as_mut() else {
                 continue;

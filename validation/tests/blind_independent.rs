@@ -22,8 +22,11 @@ use zmp_validation::par::parallel_map;
 /// 900000 (its first run stopped on seed 900000, which was then examined: the delay's range,
 /// saturation's monotone demand); from 910000 (run once, singles 18/21, pairs 11/12, clean
 /// 10/10, outside 8/8, closed 22/52; its summary lines, not its draws, were seen before the
-/// last changes: the limit at its floor, the error rule and the swap in the search).
-const HELD_OUT_FIRST_SEED: u64 = 920_000;
+/// last changes: the limit at its floor, the error rule and the swap in the search); from
+/// 920000 (run once: singles 15/21, pairs 8/12, clean 10/10, outside 6/8, closed 18/52; seed
+/// 920003, a heavy saturation left at 1.5x the floor, was then examined, which led to the
+/// development seeds' clean robots and the noise colour at low frequency).
+const HELD_OUT_FIRST_SEED: u64 = 930_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 

@@ -1,13 +1,21 @@
 //! The noise a record's first harmonic and trend actually see: the residual of the harmonic
-//! fit, its power in a few frequency bins beside the excitation and near zero frequency.
+//! fit, its power in frequency bins beside the excitation and near zero frequency.
 //!
 //! White noise makes every bin equal to the residual variance, and the usual least-squares
-//! variances follow; coloured noise (a sensor filter, vibration, drift that is not a straight
-//! line) puts more power at some frequencies than at others, and a variance computed from
-//! the overall residual would be wrong there by the same factor. The bins are averaged per
-//! record; [`pool_ratios`] then pools the ratio `bin power / residual variance` over the
-//! records of a campaign by frequency, so that each record's variance is its own residual
-//! variance times a smooth, well-determined colour factor.
+//! variances follow; coloured noise (a sensor filter, vibration, slow creep of the force
+//! sensors) puts more power at some frequencies than at others, and a variance computed from
+//! the overall residual would be wrong there by the same factor. Each bin's power over its
+//! record's residual variance is a sample of the noise's colour **at the bin's own
+//! frequency**; [`pool_ratios`] pools these samples over the records of a campaign (one
+//! sensor, one noise) by frequency, so that each record's variance is its own residual
+//! variance times a smooth, well-determined colour factor at its excitation frequency.
+//!
+//! The steady state is a whole number of periods, so the fitted harmonics sit on the slice's
+//! Fourier bins and the other bins are orthogonal to them: the bins next to the excitation are
+//! usable. On a record of two or three periods they are the only bins near its frequency
+//! (bins two away from every harmonic, the rule for slices of a fractional number of periods,
+//! start above four times the excitation, where a first-order noise is already several times
+//! weaker: the first harmonic's standard error came out 2-4 times too small at 0.5-2 rad/s).
 
 use super::sine::HarmonicFit;
 use std::f64::consts::PI;
@@ -16,27 +24,37 @@ use std::f64::consts::PI;
 pub(crate) const BINS: usize = 8;
 
 /// Mean power per sample of a residual, `|sum_k e_k e^{-i W k dt}|^2 / n`, in bins beside the
-/// excitation and near zero frequency; for white noise both equal its variance.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// excitation and near zero frequency (averages, and each bin as `(frequency, power)`); for
+/// white noise every bin equals its variance.
+#[derive(Debug, Clone, PartialEq)]
 pub(crate) struct LocalNoise {
     pub near_omega: f64,
     pub near_zero: f64,
+    pub near_bins: Vec<(f64, f64)>,
+    pub zero_bins: Vec<(f64, f64)>,
 }
 
 /// The bin frequencies (rad/s) used beside `omega` and near zero for a slice of `n` samples at
-/// `dt` fitted with `k_max` harmonics: whole multiples of the slice's resolution `2 pi/(n dt)`,
-/// at least two bins from every fitted frequency (0, omega, ..., (k_max + 1) omega; the
-/// fitted columns' leakage into them is then negligible) and below Nyquist.
+/// `dt` fitted with `k_max` harmonics: whole multiples of the slice's resolution `2 pi/(n dt)`
+/// above two and a half of it (the trend column leaks into the lowest) and below Nyquist.
+/// On a slice of a whole number of periods every bin but the fitted harmonics' own
+/// (0, omega, ..., (k_max + 1) omega) is clear; otherwise a bin must be at least one and a
+/// half bins from each of them (the fitted columns' leakage is then negligible). Beside
+/// `omega`: the [`BINS`] pairs nearest to it.
 pub(crate) fn bin_frequencies(n: usize, dt: f64, omega: f64, k_max: usize) -> (Vec<f64>, Vec<f64>) {
     let res = 2.0 * PI / (n as f64 * dt);
     let nyq = PI / dt;
+    let p = omega / res;
+    let whole = p.round() >= 1.0 && (p - p.round()).abs() < 0.05;
+    let gap = if whole { 0.5 } else { 1.5 };
     let clear = |w: f64| {
         w > 2.5 * res
             && w < nyq - res
-            && (1..=k_max + 1).all(|h| (w - h as f64 * omega).abs() >= 1.5 * res)
+            && (1..=k_max + 1).all(|h| (w - h as f64 * omega).abs() >= gap * res)
     };
+    let first = if whole { 1 } else { 2 };
     let mut near = Vec::new();
-    for m in 2..(2 + 3 * BINS) {
+    for m in first..(first + 3 * BINS) {
         for w in [omega + m as f64 * res, omega - m as f64 * res] {
             if near.len() < 2 * BINS && clear(w) {
                 near.push(w);
@@ -68,10 +86,12 @@ pub(crate) fn local_noise<const S: usize>(
     let (near, zero) = bin_frequencies(n, dt, omega, k_max);
     let bins: Vec<f64> = near.iter().chain(zero.iter()).copied().collect();
     let nb = bins.len();
-    let mut out = [LocalNoise {
+    let mut out: [LocalNoise; S] = std::array::from_fn(|_| LocalNoise {
         near_omega: f64::NAN,
         near_zero: f64::NAN,
-    }; S];
+        near_bins: Vec::new(),
+        zero_bins: Vec::new(),
+    });
     if nb == 0 || n == 0 {
         return out;
     }
@@ -115,6 +135,8 @@ pub(crate) fn local_noise<const S: usize>(
     }
     let power = |b: usize, j: usize| (acc[b][j].0.powi(2) + acc[b][j].1.powi(2)) / n as f64;
     for (j, o) in out.iter_mut().enumerate() {
+        o.near_bins = (0..near.len()).map(|b| (bins[b], power(b, j))).collect();
+        o.zero_bins = (near.len()..nb).map(|b| (bins[b], power(b, j))).collect();
         if !near.is_empty() {
             o.near_omega = (0..near.len()).map(|b| power(b, j)).sum::<f64>() / near.len() as f64;
         }
@@ -125,6 +147,10 @@ pub(crate) fn local_noise<const S: usize>(
     out
 }
 
+/// Bins behind a pooled colour factor, at least (a single bin's power scatters like an
+/// exponential variable: 96 of them give the mean to about 10 %).
+pub(crate) const POOL_MIN_BINS: usize = 96;
+
 /// One record's colour sample: at `omega` (rad/s), the local power over the residual variance
 /// and the number of bins it averages.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -134,37 +160,73 @@ pub(crate) struct ColourSample {
     pub bins: usize,
 }
 
-/// Pools colour samples over records by frequency: for each query frequency, the bin-weighted
-/// mean ratio of the samples within a factor `1.5` in frequency (at least the nearest 6
-/// samples). White noise gives about 1 everywhere; a record's variance is its residual
-/// variance times the pooled ratio at its frequency. Samples that are not finite are ignored;
+/// Pools colour samples over records by frequency: for each query frequency, the samples within
+/// a factor `1.5` in frequency (at least the nearest holding [`POOL_MIN_BINS`] bins),
+/// their ratio fitted linearly in the log of the frequency and read at the query. White
+/// noise gives about 1 everywhere; a record's variance is its residual variance times the
+/// pooled ratio at its frequency. Samples that are not finite are ignored;
 /// with none left the factor is 1.
 pub(crate) fn pool_ratios(samples: &[ColourSample], queries: &[f64]) -> Vec<f64> {
-    let good: Vec<&ColourSample> = samples
+    // Sorted once by log frequency; each query takes a contiguous run around its position.
+    let mut good: Vec<(f64, &ColourSample)> = samples
         .iter()
         .filter(|s| s.ratio.is_finite() && s.ratio > 0.0 && s.omega > 0.0 && s.bins > 0)
+        .map(|s| (s.omega.ln(), s))
         .collect();
+    good.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let window = 1.5f64.ln();
     queries
         .iter()
         .map(|&w| {
             if good.is_empty() || w.is_nan() || w <= 0.0 {
                 return 1.0;
             }
-            let mut by_dist: Vec<(f64, &ColourSample)> = good
-                .iter()
-                .map(|s| ((s.omega / w).ln().abs(), *s))
-                .collect();
-            by_dist.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let within = by_dist.iter().filter(|(d, _)| *d <= 1.5f64.ln()).count();
-            let take = within.max(6).min(by_dist.len());
-            let (num, den) = by_dist[..take].iter().fold((0.0, 0.0), |(a, b), (_, s)| {
-                (a + s.ratio * s.bins as f64, b + s.bins as f64)
-            });
-            if den > 0.0 {
-                num / den
-            } else {
-                1.0
+            let lw = w.ln();
+            let dist = |k: usize| (good[k].0 - lw).abs();
+            // [lo, hi): the samples within the window ...
+            let mut lo = good.partition_point(|g| g.0 < lw - window);
+            let mut hi = good.partition_point(|g| g.0 <= lw + window);
+            let mut held: usize = good[lo..hi].iter().map(|g| g.1.bins).sum();
+            // ... widened to the nearest until they hold enough bins; samples as far as the
+            // last one taken are taken too (the result does not depend on their order).
+            while held < POOL_MIN_BINS && (lo > 0 || hi < good.len()) {
+                let d = match (lo > 0, hi < good.len()) {
+                    (true, true) => dist(lo - 1).min(dist(hi)),
+                    (true, false) => dist(lo - 1),
+                    _ => dist(hi),
+                };
+                while lo > 0 && dist(lo - 1) <= d {
+                    lo -= 1;
+                    held += good[lo].1.bins;
+                }
+                while hi < good.len() && dist(hi) <= d {
+                    held += good[hi].1.bins;
+                    hi += 1;
+                }
             }
+            // Weighted least squares of the ratio on ln(frequency / query): the intercept is
+            // the colour at the query even when the samples lie on one side of it (the lowest
+            // excitation has bins only above it) and the noise's spectrum slopes there. Kept
+            // within half and twice the samples' mean.
+            let (mut sw, mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for (lg, s) in &good[lo..hi] {
+                let (b, xi) = (s.bins as f64, lg - lw);
+                sw += b;
+                sx += b * xi;
+                sy += b * s.ratio;
+                sxx += b * xi * xi;
+                sxy += b * xi * s.ratio;
+            }
+            if sw <= 0.0 {
+                return 1.0;
+            }
+            let mean = sy / sw;
+            let var_x = sxx / sw - (sx / sw).powi(2);
+            if var_x < 1e-4 {
+                return mean;
+            }
+            let slope = (sxy / sw - (sx / sw) * mean) / var_x;
+            (mean - slope * sx / sw).clamp(0.5 * mean, 2.0 * mean)
         })
         .collect()
 }
@@ -246,6 +308,54 @@ mod tests {
         assert!(
             var > 0.7 * pred && var < 1.4 * pred,
             "scatter {var} vs {pred}"
+        );
+    }
+
+    #[test]
+    fn a_record_of_few_periods_sees_the_noise_at_its_own_frequency() {
+        // Three whole periods at 0.5 rad/s in first-order noise of correlation time 0.8 s
+        // (corner 1.25 rad/s, a slow creep of force sensors): the bins two away from every
+        // harmonic start above 4.5 omega, where the noise is 3.6 times weaker than at omega.
+        // Pooled over records, the bins (next to the excitation included) must give the
+        // colour at omega itself.
+        let (dt, omega) = (0.005, 0.5);
+        let n = (3.0 * 2.0 * PI / omega / dt).round() as usize;
+        let pole: f64 = (-dt / 0.8f64).exp();
+        let theory = {
+            let x = omega * dt;
+            (1.0 - pole * pole) / (1.0 - 2.0 * pole * x.cos() + pole * pole)
+        };
+        let mut samples = Vec::new();
+        let mut raw = Vec::new();
+        for seed in 0..40 {
+            let y = noisy(n, omega, dt, 5e-4, pole, 500 + seed);
+            let fit = harmonic_fit_trend([&y[..]], omega, dt, 3).unwrap();
+            let [ln] = local_noise([&y[..]], &fit, omega, dt);
+            // The residual variance of a record is a poor estimate of the process variance
+            // (38 s of a 0.8 s process); the colour is relative to it, as in identification.
+            let v = fit.noise_var[0];
+            assert!(
+                ln.near_bins.iter().any(|b| b.0 < 2.0 * omega),
+                "{:?}",
+                ln.near_bins
+            );
+            for &(w, p) in ln.near_bins.iter().chain(ln.zero_bins.iter()) {
+                samples.push(ColourSample {
+                    omega: w,
+                    ratio: p / v,
+                    bins: 1,
+                });
+            }
+            raw.push(v);
+        }
+        let pooled = pool_ratios(&samples, &[omega])[0];
+        let v_mean = raw.iter().sum::<f64>() / raw.len() as f64;
+        // The power at omega over the mean residual variance, against the process's own.
+        let process_var = (5e-4f64).powi(2);
+        let expected = theory * process_var / v_mean;
+        assert!(
+            pooled > 0.75 * expected && pooled < 1.3 * expected,
+            "pooled {pooled} expected {expected}"
         );
     }
 

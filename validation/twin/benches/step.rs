@@ -141,6 +141,29 @@ fn bench(c: &mut Criterion) {
         if pl.is_nan() {
             println!("silo2/step ({what}): ours {o:.0} steps/s; python peer not run");
         } else {
+            // Into the history of `cargo xtask bench` (seconds per step, ratio = peer / ours).
+            let slug = if what == "wall clock" { "" } else { "_cpu" };
+            zmp_bench::report_peer(
+                &format!("twin_step/mujoco_python{slug}"),
+                1.0 / o,
+                1.0 / pl,
+                "step",
+                &format!(
+                    "SILO2 twin step (servo references + `mj_step`) against the same model \
+                     stepped from a Python loop by MuJoCo's own bindings ({what}, medians of \
+                     20,000-step runs)"
+                ),
+            );
+            zmp_bench::report_peer(
+                &format!("twin_step/mujoco_python_nstep{slug}"),
+                1.0 / o,
+                1.0 / pn,
+                "step",
+                &format!(
+                    "the same against MuJoCo Python's `mj_step(m, d, nstep=10)` (no Python per \
+                     step; {what})"
+                ),
+            );
             println!(
                 "silo2/step ({what}): ours {o:.0} steps/s; MuJoCo Python bindings {pl:.0} \
                  steps/s (Python loop, ratio {:.2}x), {pn:.0} steps/s (mj_step nstep=10, \

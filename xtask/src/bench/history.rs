@@ -11,7 +11,7 @@ use std::io::Write as _;
 use std::path::Path;
 use std::process::{Command, Stdio};
 
-use super::counts::{Per, Runner, REGISTRY};
+use super::counts::{Per, REGISTRY};
 use super::gate::Measured;
 use super::wall::{Peer, WallResults, MEDIANS};
 use crate::env::repo_root;
@@ -79,9 +79,6 @@ pub fn record(measured: &[Measured], wall: &WallResults) -> Result<()> {
     let history = read_history(&path)?;
     let trends = bench.join("trends");
     for b in REGISTRY {
-        if matches!(b.runner, Runner::Pending(_)) {
-            continue;
-        }
         let file = trends.join(format!("{}.svg", b.name.replace('/', "-")));
         trend_svg(&file, b.name, b.per, &history)?;
     }
@@ -206,15 +203,6 @@ pub fn latest_table(e: &Entry) -> String {
     for b in REGISTRY {
         let file = b.name.replace('/', "-");
         match (b.runner, e.instructions.get(b.name)) {
-            (Runner::Pending(why), _) => {
-                let _ = writeln!(
-                    s,
-                    "| `{}`: {} | pending: {why} | ±{:.0} % | |",
-                    b.name,
-                    b.what,
-                    100.0 * b.tolerance
-                );
-            }
             (_, Some(v)) => {
                 let _ = writeln!(
                     s,
@@ -267,7 +255,8 @@ pub fn latest_table(e: &Entry) -> String {
         let _ = writeln!(
             s,
             "| `twin_step/mujoco_python`: MuJoCo's Python stepping against our twin step | \
-             pending: the zmp-twin crate has no bench yet | | |"
+             not measured in this run (the Python peer did not run: `cargo xtask setup` \
+             installs `mujoco==3.17.0` in the venv) | | |"
         );
     }
     s

@@ -46,28 +46,16 @@ pub fn default_baseline() -> PathBuf {
     repo_root().join("bench/baseline.toml")
 }
 
-/// The benches a run measures: `only`, else every registered bench that has a count binary.
+/// The benches a run measures: `only`, else every registered bench.
 fn selected(args: &BenchArgs) -> Result<Vec<&'static CountBench>> {
     let benches: Vec<&'static CountBench> = if args.only.is_empty() {
-        REGISTRY
-            .iter()
-            .filter(|b| !matches!(b.runner, Runner::Pending(_)))
-            .collect()
+        REGISTRY.iter().collect()
     } else {
         args.only
             .iter()
             .map(|n| counts::lookup(n))
             .collect::<Result<_>>()?
     };
-    if let Some(b) = benches
-        .iter()
-        .find(|b| matches!(b.runner, Runner::Pending(_)))
-    {
-        let Runner::Pending(why) = b.runner else {
-            unreachable!()
-        };
-        bail!("{} cannot be measured yet: {why}", b.name);
-    }
     if args.planted_regression {
         if let Some(b) = benches
             .iter()

@@ -103,6 +103,20 @@ pub fn run() -> Result<WallResults> {
     if !status.success() {
         bail!("cargo bench failed ({status})");
     }
+    // The MuJoCo twin's step against MuJoCo's Python bindings (its own crate: the only one
+    // linking MuJoCo).
+    let mut twin = Command::new(std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into()));
+    twin.current_dir(repo_root())
+        .args(["bench", "-p", "zmp-twin", "--bench", "step"])
+        .stdin(Stdio::null());
+    crate::ci::strip_cargo_run_env(&mut twin);
+    apply_env(&mut twin, &prereqs());
+    twin.env("ZMP_BENCH_RESULTS", &results);
+    eprintln!("bench: cargo bench -p zmp-twin --bench step (about a minute)");
+    let status = twin.status().context("running cargo bench -p zmp-twin")?;
+    if !status.success() {
+        bail!("cargo bench -p zmp-twin --bench step failed ({status})");
+    }
     let mut out = WallResults::default();
     let criterion = target_dir().join("criterion");
     for (id, _) in MEDIANS {
