@@ -331,6 +331,11 @@ enum ValidateRobot {
         /// Print the summary (summary.json) on standard output.
         #[arg(long)]
         json: bool,
+        /// Also write this run's numbers into the README at PATH, between its
+        /// `<!-- twin-silo2:... -->` markers (full run only): how the README's twin tables
+        /// are made.
+        #[arg(long, value_name = "PATH", conflicts_with = "short")]
+        readme: Option<PathBuf>,
     },
 }
 
@@ -468,12 +473,14 @@ fn run(cli: Cli) -> Result<()> {
                     short,
                     force,
                     json,
+                    readme,
                 },
         } => twin::validate_silo2(&twin::Silo2Args {
             out: out.as_deref(),
             short,
             force,
             json,
+            readme: readme.as_deref(),
         }),
         Cmd::History { model, plot, json } => {
             diagnose::history_cmd(&model, plot.as_deref(), true, json)

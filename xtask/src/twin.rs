@@ -73,6 +73,7 @@ pub struct Silo2Args<'a> {
     pub short: bool,
     pub force: bool,
     pub json: bool,
+    pub readme: Option<&'a Path>,
 }
 
 fn silo2_args(a: &Silo2Args, egl: &std::result::Result<PathBuf, String>) -> Vec<OsString> {
@@ -96,6 +97,15 @@ fn silo2_args(a: &Silo2Args, egl: &std::result::Result<PathBuf, String>) -> Vec<
     if let Err(why) = egl {
         args.push("--frames-unavailable".into());
         args.push(why.into());
+    }
+    if let Some(r) = a.readme {
+        args.push("--readme".into());
+        args.push(
+            std::env::current_dir()
+                .map(|d| d.join(r))
+                .unwrap_or_else(|_| r.to_path_buf())
+                .into(),
+        );
     }
     args
 }
@@ -132,6 +142,7 @@ pub fn demo_step(out: &Path, quiet: bool) -> Result<()> {
             short: true,
             force: false,
             json: true,
+            readme: None,
         },
         &egl,
     );

@@ -15,6 +15,7 @@ pub mod campaign;
 pub mod closed_loop;
 pub mod crosscheck;
 pub mod props;
+pub mod readme;
 pub mod report;
 pub mod summary;
 pub mod validate;

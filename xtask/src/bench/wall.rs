@@ -93,7 +93,15 @@ pub fn run() -> Result<WallResults> {
     apply_env(&mut cmd, &prereqs());
     cmd.env("ZMP_BENCH_RESULTS", &results);
     // The commands bench runs this very binary (`cargo xtask` builds it in release).
-    cmd.env("ZMP_XTASK_BIN", std::env::current_exe()?);
+    // When the count binaries' build replaced this binary on disk (another feature set of a
+    // shared dependency), `current_exe` names a deleted file; the rebuilt one is in its place.
+    let exe = std::env::current_exe()?;
+    let exe = if exe.is_file() {
+        exe
+    } else {
+        target_dir().join("release").join("xtask")
+    };
+    cmd.env("ZMP_XTASK_BIN", exe);
     eprintln!(
         "bench: cargo bench -p zmp-bench --bench {} (several minutes)",
         BENCHES.join(" --bench ")

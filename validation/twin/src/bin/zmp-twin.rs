@@ -72,6 +72,10 @@ enum Silo2Cmd {
         /// builds without the `renderer` feature); written into the report.
         #[arg(long, hide = true)]
         frames_unavailable: Option<String>,
+        /// Also write this run's numbers into the README at PATH, between its
+        /// `<!-- twin-silo2:... -->` markers (the full run only: the README quotes it).
+        #[arg(long, value_name = "PATH", conflicts_with = "short")]
+        readme: Option<PathBuf>,
     },
     /// Only the stepped-sine campaign (zmp-campaign/1) into OUT.
     Campaign {
@@ -157,7 +161,18 @@ fn run(cli: Cli) -> Result<()> {
                 no_frames,
                 zmp_delay,
                 frames_unavailable,
+                readme,
             } => {
+                // Checked before the run: a README without the markers fails in seconds.
+                if let Some(p) = &readme {
+                    let text = std::fs::read_to_string(p)
+                        .with_context(|| format!("reading {}", p.display()))?;
+                    for (tag, _) in silo2::readme::TAGS.iter().map(|t| (t, ())) {
+                        if !text.contains(&format!("<!-- {tag} -->\n")) {
+                            anyhow::bail!("{}: no marker `<!-- {tag} -->`", p.display());
+                        }
+                    }
+                }
                 let summary = validate::validate(&validate::ValidateOptions {
                     model,
                     out,
@@ -168,6 +183,13 @@ fn run(cli: Cli) -> Result<()> {
                     frames: frames(no_frames, frames_unavailable),
                     zmp_delay,
                 })?;
+                if let Some(p) = &readme {
+                    silo2::readme::write(p, &silo2::readme::sections(&summary))
+                        .map_err(anyhow::Error::msg)?;
+                    if !json {
+                        println!("README sections -> {}", p.display());
+                    }
+                }
                 if json {
                     println!("{}", serde_json::to_string_pretty(&summary)?);
                 }

@@ -318,3 +318,33 @@ fn the_output_folder_is_complete_and_not_overwritten_without_force() {
         .to_string();
     assert!(e.contains("not written by"), "{e}");
 }
+
+#[test]
+fn the_readme_sections_quote_the_run() {
+    let (_, s) = short_run();
+    let secs = super::readme::sections(s);
+    assert_eq!(
+        secs.iter().map(|(t, _)| *t).collect::<Vec<_>>(),
+        super::readme::TAGS
+    );
+    let a11 = s.parameters.iter().find(|p| p.name == "a11").unwrap();
+    assert!(
+        secs[0].1.contains(&format!(
+            "{:.4} ± {:.4}",
+            a11.identified, a11.identified_stderr
+        )),
+        "{}",
+        secs[0].1
+    );
+    let reach = s.closed_loop.comparison.twin.reach_time_s;
+    assert!(
+        secs[1].1.contains(&format!("{reach:.1} s")),
+        "{}",
+        secs[1].1
+    );
+    assert!(
+        secs[2].1.contains(&format!("`{}`", s.diagnosis.verdict)),
+        "{}",
+        secs[2].1
+    );
+}
