@@ -227,6 +227,13 @@ pub trait Effect: Send + Sync + fmt::Debug {
         (1.0, 1.0)
     }
 
+    /// Pendulum modifiers: the gradient of the scale of `a_ij` with the CoM position,
+    /// `[d/dx, d/dy]` 1/m, at `[x, y]` m. The static ZMP `(scale a) x_c` then has the
+    /// small-signal gain `a_ij scale + d scale/d x_j (a x_c)_i` (see [`Plant`](crate::Plant)).
+    fn pendulum_scale_gradient(&self, _operating_point: [f64; 2]) -> [f64; 2] {
+        [0.0, 0.0]
+    }
+
     /// The linear continuous-time transfer function, when the effect has one.
     fn transfer_function(&self) -> Option<crate::lti::TransferFunction> {
         None

@@ -56,7 +56,13 @@ pub struct Plant {
     channel: [[Chain; 2]; 2],
     sensor: [Chain; 2],
     operating_point: [f64; 2],
+    /// Static pendulum gains at the operating point: the ZMP at rest is `a op`.
     a: [[f64; 2]; 2],
+    /// Small-signal pendulum gains at the operating point (the slope of the static ZMP, see
+    /// [`Plant::set_operating_point`]); equal to `a` without a position-dependent modifier.
+    a_lin: [[f64; 2]; 2],
+    /// `(a - a_lin) op`: a channel's pendulum term is `a_lin x_c + a_off - b x_c''`.
+    a_off: [[f64; 2]; 2],
     b: [[f64; 2]; 2],
     last: PlantOutput,
     /// The CoM reference at the end of the last step.
@@ -125,6 +131,8 @@ impl Plant {
             sensor: [Vec::new(), Vec::new()],
             operating_point: [0.0; 2],
             a: pendulum.a,
+            a_lin: pendulum.a,
+            a_off: [[0.0; 2]; 2],
             b: pendulum.b,
             last: PlantOutput::default(),
             last_ref: [0.0; 2],
@@ -204,17 +212,34 @@ impl Plant {
     }
 
     /// The operating point `[x, y]` (m) that operating-point-dependent effects see.
+    ///
+    /// Pendulum modifiers scale `a` by `s(x_c)` and `b` by `t(x_c)` at the CoM position; the
+    /// plant linearises `zmp_i = s(x_c) sum_j a_ij x_cj` about `op`: at rest the ZMP is
+    /// `s(op) a op`, and a motion `dx_j` moves it by the slope of that static map,
+    /// `a_ij s(op) + ds/dx_j (a op)_i` (exact for the first harmonic: the rest of a square
+    /// term is a mean shift and a second harmonic). `b` multiplies the acceleration, zero at
+    /// rest, so its small-signal gain is `b_ij t(op)`.
     pub fn set_operating_point(&mut self, op: [f64; 2]) {
         self.operating_point = op;
         let (mut sa, mut sb) = (1.0, 1.0);
+        let mut grad = [0.0; 2];
         for m in &self.pendulum_mods {
             let (a, b) = m.pendulum_scale(op);
+            let g = m.pendulum_scale_gradient(op);
+            // Product rule: d(sa a)/dx = g sa + a d(sa)/dx.
+            for k in 0..2 {
+                grad[k] = grad[k] * a + g[k] * sa;
+            }
             sa *= a;
             sb *= b;
         }
+        let a0 = self.pendulum.a;
         for i in 0..2 {
+            let static_i = a0[i][0] * op[0] + a0[i][1] * op[1];
             for j in 0..2 {
-                self.a[i][j] = self.pendulum.a[i][j] * sa;
+                self.a[i][j] = a0[i][j] * sa;
+                self.a_lin[i][j] = a0[i][j] * sa + grad[j] * static_i;
+                self.a_off[i][j] = (self.a[i][j] - self.a_lin[i][j]) * op[j];
                 self.b[i][j] = self.pendulum.b[i][j] * sb;
             }
         }
@@ -225,9 +250,16 @@ impl Plant {
     }
 
     /// The pendulum coefficients `(a, b)` at the operating point (rescaled by the pendulum
-    /// modifiers).
+    /// modifiers): the static relation, the ZMP at rest is `a op`.
     pub fn pendulum_at_operating_point(&self) -> ([[f64; 2]; 2], [[f64; 2]; 2]) {
         (self.a, self.b)
+    }
+
+    /// The small-signal pendulum gains `(a, b)` at the operating point: what a small sine
+    /// about it sees (`a` differs from the static one where the coefficients move with the
+    /// CoM position; see [`Plant::set_operating_point`]).
+    pub fn pendulum_gain_at_operating_point(&self) -> ([[f64; 2]; 2], [[f64; 2]; 2]) {
+        (self.a_lin, self.b)
     }
 
     /// Puts the whole plant at rest for the constant CoM reference `com_ref`.
@@ -245,8 +277,10 @@ impl Plant {
         for i in 0..2 {
             let mut z = 0.0;
             for j in 0..2 {
-                self.channel_out[i][j] =
-                    reset_chain(&mut self.channel[i][j], self.a[i][j] * com[j]);
+                self.channel_out[i][j] = reset_chain(
+                    &mut self.channel[i][j],
+                    self.a_lin[i][j] * com[j] + self.a_off[i][j],
+                );
                 z += self.channel_out[i][j];
             }
             zmp[i] = reset_chain(&mut self.sensor[i], z);
@@ -289,9 +323,9 @@ impl Plant {
         for i in 0..2 {
             let (mut z, mut z_start, mut jumped) = (0.0, 0.0, false);
             for j in 0..2 {
-                let p = self.a[i][j] * com[j] - self.b[i][j] * acc[j];
-                let p_start =
-                    acc_start[j].map(|a0| self.a[i][j] * com_start[j] - self.b[i][j] * a0);
+                let (a, a_off, b) = (self.a_lin[i][j], self.a_off[i][j], self.b[i][j]);
+                let p = a * com[j] + a_off - b * acc[j];
+                let p_start = acc_start[j].map(|a0| a * com_start[j] + a_off - b * a0);
                 let (c_start, c) = run_chain(&mut self.channel[i][j], p_start, p);
                 jumped |= c_start.is_some();
                 z_start += c_start.unwrap_or(self.channel_out[i][j]);
@@ -366,7 +400,7 @@ impl Plant {
             }
         }
         g *= self.lowpass[j].tf().freq(omega);
-        g *= Complex64::new(self.a[i][j] + self.b[i][j] * omega * omega, 0.0);
+        g *= Complex64::new(self.a_lin[i][j] + self.b[i][j] * omega * omega, 0.0);
         for e in &self.channel[i][j] {
             g *= e.frequency_response(omega, amp);
         }

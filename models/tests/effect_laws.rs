@@ -617,8 +617,10 @@ fn harmonic_with_trend(y: &[f64], omega: f64, t0: f64) -> Complex64 {
 // ---------------------------------------------------------------------------------------------
 // operating_point_dependence
 
-/// `a_ij(op) = a_ij (1 + da_dx x + da_dy y)`, `b_ij(op)` likewise: the DC gain at `op`, the
-/// rest output, and the response at frequency.
+/// `a_ij(x_c) = a_ij (1 + da_dx x + da_dy y)`, `b_ij(x_c)` likewise, at the CoM position: the
+/// rest output is `a(op) op`; a small motion about `op` sees the slope of that static map,
+/// `a_ij(op) + da_j (a op)_i` (the DC gain, the response at frequency, a small step in time);
+/// and that slope is the one of the rest outputs at neighbouring operating points.
 #[test]
 fn operating_point_dependence_scales_a_and_b_as_documented() {
     let (da_dx, da_dy, db_dx, db_dy) = (1.5, -0.8, -2.0, 0.5);
@@ -638,11 +640,13 @@ fn operating_point_dependence_scales_a_and_b_as_documented() {
         let sb = 1.0 + db_dx * op[0] + db_dy * op[1];
         p.set_operating_point(op);
         assert_eq!(p.operating_point(), op);
-        // DC gain: G(0) = a_ij(op).
+        let da = [da_dx, da_dy];
+        let lin = |i: usize, j: usize| a[i][j] * sa + da[j] * (a[i][0] * op[0] + a[i][1] * op[1]);
+        // DC gain: G(0) = a_ij(op) + da_j (a op)_i.
         let g0 = p.frequency_response(0.0);
         for i in 0..2 {
             for j in 0..2 {
-                let want = a[i][j] * sa;
+                let want = lin(i, j);
                 assert!(
                     (g0[i][j].re - want).abs() <= 1e-12 * want.abs(),
                     "{op:?} {i}{j}"
@@ -650,14 +654,14 @@ fn operating_point_dependence_scales_a_and_b_as_documented() {
                 assert!(g0[i][j].im.abs() <= 1e-15);
             }
         }
-        // At frequency: (a(op) + b(op) w^2) H(jw).
+        // At frequency: (a_lin(op) + b(op) w^2) H(jw).
         for w in [1.0, 10.0, 40.0] {
             let s = Complex64::new(0.0, w);
             let hw = 900.0 / (s * s + 60.0 * s + 900.0);
             let g = p.frequency_response(w);
             for i in 0..2 {
                 for j in 0..2 {
-                    let want = (a[i][j] * sa + b[i][j] * sb * w * w) * hw;
+                    let want = (lin(i, j) + b[i][j] * sb * w * w) * hw;
                     assert!((g[i][j] - want).norm() <= 1e-12 * want.norm());
                 }
             }
@@ -676,12 +680,34 @@ fn operating_point_dependence_scales_a_and_b_as_documented() {
         let o = p.advance([op[0] + d[0], op[1] + d[1]], 10_000);
         for i in 0..2 {
             let gain = (o.zmp[i] - rest.zmp[i]) / 1.0;
-            let want = sa * (a[i][0] * d[0] + a[i][1] * d[1]);
+            let want = lin(i, 0) * d[0] + lin(i, 1) * d[1];
             assert!(
                 (gain - want).abs() <= 1e-12,
                 "{op:?} output {i}: {gain} vs {want}"
             );
         }
+        // The small-signal gain is the slope of the rest ZMP over operating points (central
+        // differences; the static map is quadratic, so they are exact up to rounding).
+        let eps = 1e-4;
+        for j in 0..2 {
+            let mut at = |s: f64| {
+                let mut o = op;
+                o[j] += s;
+                p.set_operating_point(o);
+                p.reset(o).zmp
+            };
+            let (hi, lo) = (at(eps), at(-eps));
+            for i in 0..2 {
+                let slope = (hi[i] - lo[i]) / (2.0 * eps);
+                assert!(
+                    (slope - g0[i][j].re).abs() <= 1e-9,
+                    "{op:?} d zmp_{i}/d op_{j}: {slope} vs G(0) {}",
+                    g0[i][j].re
+                );
+            }
+        }
+        p.set_operating_point(op);
+        p.reset(op);
         // And the time response at frequency matches the scaled frequency response.
         let sim = p.simulated_response(Axis::Y, 10.0, 0.005);
         let g = p.frequency_response(10.0);

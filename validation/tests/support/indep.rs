@@ -225,7 +225,13 @@ pub fn run_case(case: &Case, dir: &Path) -> anyhow::Result<Outcome> {
             coupling_form: Some(CouplingForm::Pendulum),
         },
     );
-    let camp_dir = dir.join(format!("campaign-{}", case.seed));
+    // `ZMP_BLIND_KEEP=DIR` keeps each draw's campaign in DIR (for looking at one draw with
+    // `cargo xtask loop DIR/campaign-SEED`); otherwise it goes with the temporary folder.
+    let keep = std::env::var_os("ZMP_BLIND_KEEP").map(std::path::PathBuf::from);
+    let camp_dir = keep
+        .as_deref()
+        .unwrap_or(dir)
+        .join(format!("campaign-{}", case.seed));
     write_campaign(&robot, &design, &camp_dir, true)?;
     let camp = read_campaign(&camp_dir)?;
     let opts = DiagnoseOptions {
@@ -239,7 +245,9 @@ pub fn run_case(case: &Case, dir: &Path) -> anyhow::Result<Outcome> {
         ..IdentifyOptions::default()
     };
     let r = run_loop(&camp, None, &iopts, &opts, &|_| {});
-    let _ = std::fs::remove_dir_all(&camp_dir);
+    if keep.is_none() {
+        let _ = std::fs::remove_dir_all(&camp_dir);
+    }
     let hidden: Vec<String> = robot.hidden.iter().map(|h| h.name.to_string()).collect();
     let in_catalogue = robot.hidden.iter().all(|h| h.in_catalogue);
     let truth = robot
