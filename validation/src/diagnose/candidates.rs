@@ -350,10 +350,33 @@ fn mode_start(r: &DataRange, k: usize, n: usize) -> f64 {
     lo * (hi / lo).powf((k as f64 + 0.5) / n as f64)
 }
 
+/// The axes `[x, y]` with no structural mode yet (in either form: on the ZMP path of that
+/// output axis or a flexible link of that input axis).
+pub fn mode_free_axes(spec: &ModelSpec) -> [bool; 2] {
+    [0, 1].map(|k| {
+        !["structural_mode", "flexible_trunk"]
+            .iter()
+            .any(|kind| spec.get(kind, AXES[k]).is_some())
+    })
+}
+
+/// The axis variants of a structural mode: all of [`axis_variants`] on a model without one;
+/// on a model with a mode on one axis, the other axis alone (a second plane's mode).
+fn mode_variants(spec: &ModelSpec, r: &DataRange) -> Vec<Vec<Binding>> {
+    let free = mode_free_axes(spec);
+    if free == [true, true] {
+        return axis_variants(r);
+    }
+    (0..2)
+        .filter(|&k| free[k] && r.axes_excited[k])
+        .map(|k| vec![AXES[k]])
+        .collect()
+}
+
 fn structural_mode(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     let mut out = flexible_trunk(spec, r);
     let n = 6;
-    for bindings in axis_variants(r) {
+    for bindings in mode_variants(spec, r) {
         for k in 0..n {
             let wm = mode_start(r, k, n);
             for zeta in [0.05, 0.3] {
@@ -404,7 +427,7 @@ fn structural_mode(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
 fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     let mut out = Vec::new();
     let n = 5;
-    for bindings in axis_variants(r) {
+    for bindings in mode_variants(spec, r) {
         for k in 0..n {
             let wm = mode_start(r, k, n);
             let (zeta, share) = (0.08, 0.4);
@@ -416,7 +439,7 @@ fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
         }
     }
     // Both axes, each with its own link (two trunk planes need not ring alike).
-    if r.axes_excited[0] && r.axes_excited[1] {
+    if r.axes_excited[0] && r.axes_excited[1] && mode_free_axes(spec) == [true, true] {
         for k in 0..n {
             let wm = mode_start(r, k, n);
             let (zeta, share) = (0.08, 0.4);

@@ -16,7 +16,8 @@
 //! others. Each fold's fit (started from the all-records fit) predicts the other fold.
 
 use super::candidates::{
-    apply, core_frees, model_kinds, plausible, Candidate, DataRange, Free, Start, CATALOGUE,
+    apply, core_frees, mode_free_axes, model_kinds, plausible, Candidate, DataRange, Free, Start,
+    CATALOGUE,
 };
 use super::lm::{minimise, Bounded};
 use super::measure::{aggregate, chi2, predict, score, whitened, RecordScore, COMPONENTS};
@@ -139,10 +140,14 @@ pub fn structure_frees(spec: &ModelSpec, skip_kinds: &[&str]) -> Vec<Free> {
 pub fn refit_frees(spec: &ModelSpec, own: &[Free], skip_kinds: &[&str]) -> Vec<Free> {
     let mut out: Vec<Free> = structure_frees(spec, skip_kinds);
     out.extend(core_frees(spec, true));
-    // A candidate that frees pendulum terms (cross-coupling) owns them.
+    // A candidate owns its parameters (shared by its bindings, or pendulum terms that
+    // cross-coupling frees); a mode already on the other axis is refitted with it.
     out.retain(|f| {
-        !own.iter()
-            .any(|o| o.kind == f.kind && o.param == f.param && o.bindings == f.bindings)
+        !own.iter().any(|o| {
+            o.kind == f.kind
+                && o.param == f.param
+                && f.bindings.iter().all(|b| o.bindings.contains(b))
+        })
     });
     out
 }
@@ -234,15 +239,7 @@ pub fn fit_screened(
     }
     let own: Vec<Free> = best.frees[..best.own].to_vec();
     let mut frees = own.clone();
-    frees.extend(refit_frees(
-        &best.spec,
-        &own,
-        &model_kinds(effect)
-            .iter()
-            .copied()
-            .filter(|k| *k != "pendulum")
-            .collect::<Vec<_>>(),
-    ));
+    frees.extend(refit_frees(&best.spec, &own, &[]));
     // Servo candidates simulate every record's describing function at every Jacobian column
     // of a servo parameter: fewer joint iterations (their own parameters are converged).
     let iters = if costly { ITERS_JOINT / 2 } else { ITERS_JOINT };
@@ -384,12 +381,16 @@ pub fn score_candidate(c: &Candidate, base: &ModelSpec, obs: &[&Observation]) ->
 }
 
 /// Whether catalogue effect `effect` can be added to `base` (not there yet; cross-coupling
-/// while the model leaves a coupling term at zero).
+/// while the model leaves a coupling term at zero; a structural mode while an axis has none:
+/// the two trunk planes ring apart, and a fit of both at once can settle on one).
 pub fn addable(effect: &str, base: &ModelSpec) -> bool {
     if effect == "cross_coupling" {
         return ["a12", "a21", "b12", "b21"]
             .iter()
             .any(|p| base.value("pendulum", Binding::Global, p) == Some(0.0));
+    }
+    if effect == "structural_mode" {
+        return mode_free_axes(base).iter().any(|&f| f);
     }
     !model_kinds(effect).iter().any(|k| base.has(k))
 }

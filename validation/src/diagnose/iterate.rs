@@ -4,7 +4,7 @@
 //! the data or nothing significant is left. `cargo xtask loop` writes what this returns.
 
 use super::augment::{augmented_from_diagnosis, Augmented};
-use super::engine::evaluate;
+use super::engine::{self, evaluate};
 use super::measure::{aggregate, predict};
 use super::observe::Observation;
 use super::run::{diagnose_observations, explains, observations_of, DiagnoseError, Diagnosis};
@@ -91,7 +91,13 @@ pub fn run_loop(
         let steps: Vec<(Vec<String>, super::engine::Fitted)> = d
             .path
             .iter()
-            .filter(|(added, _)| added.iter().all(|e| !found.contains(e)))
+            // A step adds what the model lacks; only a structural mode comes twice (the
+            // second trunk plane's, `engine::addable`).
+            .filter(|(added, _)| {
+                added
+                    .iter()
+                    .all(|e| !found.contains(e) || engine::addable(e, &current))
+            })
             .cloned()
             .collect();
         diagnoses.push(d);
