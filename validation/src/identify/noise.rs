@@ -97,15 +97,19 @@ pub(crate) fn local_noise<const S: usize>(
     }
     let c = (n as f64 - 1.0) / 2.0;
     // Bin rotations and the fundamental's rotation, by recurrence resynchronised every 1024.
-    let rot: Vec<(f64, f64)> = bins.iter().map(|w| (w * dt).sin_cos()).collect();
+    // Bins are laid out as separate sine, cosine and accumulator arrays so that the per-bin
+    // loops vectorise (each accumulator sees the same operations in the same order).
+    let (rs, rc): (Vec<f64>, Vec<f64>) = bins.iter().map(|w| (w * dt).sin_cos()).unzip();
     let (ds, dc) = (omega * dt).sin_cos();
-    let mut acc = vec![[(0.0f64, 0.0f64); S]; nb];
-    let mut z: Vec<(f64, f64)> = vec![(0.0, 1.0); nb];
+    let mut acc_re = vec![0.0f64; S * nb];
+    let mut acc_im = vec![0.0f64; S * nb];
+    let mut zs = vec![0.0f64; nb];
+    let mut zc = vec![1.0f64; nb];
     let (mut s1, mut c1) = (0.0f64, 1.0f64);
     for k in 0..n {
         if k % 1024 == 0 {
             for (b, w) in bins.iter().enumerate() {
-                z[b] = (w * k as f64 * dt).sin_cos();
+                (zs[b], zc[b]) = (w * k as f64 * dt).sin_cos();
             }
             (s1, c1) = (omega * k as f64 * dt).sin_cos();
         }
@@ -120,20 +124,22 @@ pub(crate) fn local_noise<const S: usize>(
                 sh = ns;
             }
             let e = signals[j][k] - f;
-            for b in 0..nb {
-                acc[b][j].0 += e * z[b].1;
-                acc[b][j].1 -= e * z[b].0;
+            let re = &mut acc_re[j * nb..(j + 1) * nb];
+            let im = &mut acc_im[j * nb..(j + 1) * nb];
+            for (((r, i), &sb), &cb) in re.iter_mut().zip(im.iter_mut()).zip(&zs).zip(&zc) {
+                *r += e * cb;
+                *i -= e * sb;
             }
         }
-        for b in 0..nb {
-            let (sb, cb) = z[b];
-            z[b] = (sb * rot[b].1 + cb * rot[b].0, cb * rot[b].1 - sb * rot[b].0);
+        for (((sb, cb), &sr), &cr) in zs.iter_mut().zip(zc.iter_mut()).zip(&rs).zip(&rc) {
+            (*sb, *cb) = (*sb * cr + *cb * sr, *cb * cr - *sb * sr);
         }
         let ns = s1 * dc + c1 * ds;
         c1 = c1 * dc - s1 * ds;
         s1 = ns;
     }
-    let power = |b: usize, j: usize| (acc[b][j].0.powi(2) + acc[b][j].1.powi(2)) / n as f64;
+    let power =
+        |b: usize, j: usize| (acc_re[j * nb + b].powi(2) + acc_im[j * nb + b].powi(2)) / n as f64;
     for (j, o) in out.iter_mut().enumerate() {
         o.near_bins = (0..near.len()).map(|b| (bins[b], power(b, j))).collect();
         o.zero_bins = (near.len()..nb).map(|b| (bins[b], power(b, j))).collect();
