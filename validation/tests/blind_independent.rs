@@ -25,8 +25,13 @@ use zmp_validation::par::parallel_map;
 /// last changes: the limit at its floor, the error rule and the swap in the search); from
 /// 920000 (run once: singles 15/21, pairs 8/12, clean 10/10, outside 6/8, closed 18/52; seed
 /// 920003, a heavy saturation left at 1.5x the floor, was then examined, which led to the
-/// development seeds' clean robots and the noise colour at low frequency).
-const HELD_OUT_FIRST_SEED: u64 = 930_000;
+/// development seeds' clean robots and the noise colour at low frequency); from 930000 (run
+/// once: singles 19/21, pairs 7/12, clean 10/10, outside 5/8, closed 36/52; then examined:
+/// seeds 930055 (cubic stiffness: its linear compliance mode added, the cubic part invisible),
+/// 930027 (a delay absorbed by the low-pass beside backlash) and 930033; the changes after
+/// it: the structural mode's damping cap 0.4, the operating-point law linearised through the
+/// static map's slope, a structural mode on the second axis).
+const HELD_OUT_FIRST_SEED: u64 = 940_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
