@@ -152,7 +152,12 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     }
     let mut current_path = identified.clone();
     for (added, aug) in &r.versions {
-        let label = added.join("+");
+        // A version without an added effect is the structure refitted (`refit`).
+        let label = if added.is_empty() {
+            "refit".to_string()
+        } else {
+            added.join("+")
+        };
         let next = augmented_path(&current_path, &label);
         zmp_validation::io::atomic_write(&next, aug.spec.to_toml().as_bytes(), true)?;
         ledger::append(

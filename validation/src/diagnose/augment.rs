@@ -168,7 +168,7 @@ pub fn augment_observations(
             model: opts.model_path.clone(),
             message: format!("the fit of {effect} failed"),
         })?;
-    finish(&refs, fitted, effect, before, floor, opts)
+    finish(&refs, fitted, &format!("+{effect}"), before, floor, opts)
 }
 
 /// The model the diagnosis fitted with `effect` added (one step of its path, fitted on every
@@ -182,13 +182,32 @@ pub fn augmented_from_diagnosis(
     opts: &DiagnoseOptions,
 ) -> Result<Augmented, DiagnoseError> {
     let (before, floor) = error_of(model, refs, opts)?;
-    finish(refs, fitted.clone(), effect, before, floor, opts)
+    finish(
+        refs,
+        fitted.clone(),
+        &format!("+{effect}"),
+        before,
+        floor,
+        opts,
+    )
+}
+
+/// The model's own structure refitted by the diagnosis (its verdict `parameter_refit`) as a
+/// written version (change `refit`); `model` is the version refitted.
+pub fn refitted_from_diagnosis(
+    refs: &[&Observation],
+    model: &ModelSpec,
+    fitted: &Fitted,
+    opts: &DiagnoseOptions,
+) -> Result<Augmented, DiagnoseError> {
+    let (before, floor) = error_of(model, refs, opts)?;
+    finish(refs, fitted.clone(), "refit", before, floor, opts)
 }
 
 fn finish(
     refs: &[&Observation],
     fitted: Fitted,
-    effect: &str,
+    change: &str,
     before: f64,
     floor: f64,
     opts: &DiagnoseOptions,
@@ -200,7 +219,7 @@ fn finish(
     let (after, _) = error_of(&fitted.spec, refs, opts)?;
     let mut spec = fitted.spec.clone();
     record_stderr(&mut spec, &fitted);
-    let change = format!("+{effect}");
+    let change = change.to_string();
     stamp(&mut spec, &change, &opts.campaign_path, refs.len());
     Ok(Augmented {
         parameters: own_parameters_of(&fitted),

@@ -3,7 +3,7 @@
 //! effect it found (fitted further to convergence), diagnose again, until the model explains
 //! the data or nothing significant is left. `cargo xtask loop` writes what this returns.
 
-use super::augment::{augmented_from_diagnosis, Augmented};
+use super::augment::{augmented_from_diagnosis, refitted_from_diagnosis, Augmented};
 use super::engine::{self, evaluate};
 use super::measure::{aggregate, predict};
 use super::observe::Observation;
@@ -36,7 +36,7 @@ pub struct LoopResult {
     pub identified_error: f64,
     pub noise_floor: f64,
     /// Each version after the identified model: the effects it adds (one, or a pair found
-    /// together) and the model.
+    /// together; none for the structure refitted, change `refit`) and the model.
     pub versions: Vec<(Vec<String>, Augmented)>,
     /// Every diagnosis run, in order.
     pub diagnoses: Vec<Diagnosis>,
@@ -74,6 +74,7 @@ pub fn run_loop(
     let mut found: Vec<String> = Vec::new();
     let mut versions = Vec::new();
     let mut diagnoses = Vec::new();
+    let mut refitted = false;
     // The model was fitted to this campaign: no check that it is the right robot.
     let opts = &DiagnoseOptions {
         scale_check: false,
@@ -100,7 +101,22 @@ pub fn run_loop(
             })
             .cloned()
             .collect();
+        // The model's own structure refitted explains the data (the identification's fit and
+        // the diagnosis's likelihood disagree, e.g. on the saturation limit): that refit is
+        // the next version, diagnosed again; once.
+        let refit = match (&d.refit, steps.is_empty() && !refitted) {
+            (Some(f), true) => Some(f.clone()),
+            _ => None,
+        };
         diagnoses.push(d);
+        if let Some(fitted) = refit {
+            refitted = true;
+            progress("refitting");
+            let aug = refitted_from_diagnosis(&obs, &current, &fitted, opts)?;
+            current = aug.spec.clone();
+            versions.push((Vec::new(), aug));
+            continue;
+        }
         if steps.is_empty() || found.len() >= MAX_EFFECTS {
             break;
         }

@@ -100,6 +100,9 @@ pub struct Diagnosis {
     /// The structures the search went through, in order: the effects each step added and the
     /// model with them fitted on all records (every parameter free).
     pub path: Vec<(Vec<String>, super::engine::Fitted)>,
+    /// With the verdict `parameter_refit`: the model's own structure refitted, which explains
+    /// the data.
+    pub refit: Option<super::engine::Fitted>,
     pub final_error: f64,
     /// Cells of the starting model, worst first.
     pub cells: Vec<Cell>,
@@ -329,6 +332,7 @@ pub fn diagnose_observations(
     let mut verdict = "none".to_string();
     let mut explained = explained_as_is;
     let mut path = Vec::new();
+    let mut refit = None;
     if !explained_as_is {
         let root = control(model, &obs);
         progress("parameter_refit");
@@ -392,6 +396,7 @@ pub fn diagnose_observations(
         verdict = if let Some((e, _)) = selected.first() {
             e.clone()
         } else if stop(&root) {
+            refit = Some(root.fitted.clone());
             "parameter_refit".to_string()
         } else {
             "unexplained".to_string()
@@ -485,6 +490,7 @@ pub fn diagnose_observations(
         selected,
         final_model: current,
         path,
+        refit,
         final_error,
         cells: base_cells,
         channels,

@@ -1,0 +1,69 @@
+//! The loop takes the model's own structure refitted as a version when that alone explains the
+//! data. On a saturating robot of `zmp-indep-sim` (a simulator sharing no code with this
+//! crate; seed 940012 of the spent held-out range, a hidden acceleration limit and nothing
+//! else), the identification keeps the seed's servo low-pass (30 rad/s, damping 1) and ends
+//! at about 2x the noise floor; the diagnosis finds that refitting the same structure (the
+//! low-pass and the limit moved) explains the data. Before the loop adopted that refit it
+//! stopped there and reported `unexplained`.
+
+use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Scenario};
+use zmp_validation::campaign::read_campaign;
+use zmp_validation::diagnose::iterate::run_loop;
+use zmp_validation::diagnose::DiagnoseOptions;
+use zmp_validation::identify::IdentifyOptions;
+
+#[test]
+fn the_loop_adopts_the_refitted_structure_when_it_explains_the_data() {
+    let design = Design::default();
+    let dir = tempfile::tempdir().unwrap();
+    let scenario: Scenario = "single:acceleration_saturation".parse().unwrap();
+    let robot = draw_with(
+        940_012,
+        &scenario,
+        &design,
+        &DrawOptions {
+            coupling_form: Some(CouplingForm::Pendulum),
+        },
+    );
+    let camp_dir = dir.path().join("campaign");
+    write_campaign(&robot, &design, &camp_dir, true).unwrap();
+    let camp = read_campaign(&camp_dir).unwrap();
+    let opts = DiagnoseOptions {
+        campaign_path: camp_dir.display().to_string(),
+        model_path: "identified.toml".into(),
+        threads: 2,
+        ..DiagnoseOptions::default()
+    };
+    let r = run_loop(&camp, None, &IdentifyOptions::default(), &opts, &|_| {}).unwrap();
+    let floor = r.noise_floor;
+    // The case this test is about: the identified model does not explain the data.
+    assert!(
+        r.identified_error > 1.5 * floor,
+        "identified at {:.2}x the floor: this draw no longer tests the refit",
+        r.identified_error / floor
+    );
+    // No effect is added (the limit is the seed's own structure) ...
+    assert!(r.found.is_empty(), "effects added: {:?}", r.found);
+    // ... the refit is a version of its own ...
+    let refits: Vec<_> = r
+        .versions
+        .iter()
+        .filter(|(added, aug)| added.is_empty() && aug.change == "refit")
+        .collect();
+    assert_eq!(refits.len(), 1, "versions: {:?}", r.versions.len());
+    let aug = &refits[0].1;
+    assert!(aug.error_after < 0.6 * aug.error_before);
+    // ... and the loop ends explained, within 1.5x the floor.
+    assert!(r.explained, "final error {:.2}x", r.final_error / floor);
+    assert!(r.final_error <= 1.5 * floor);
+    // The refit moved the servo's low-pass off the seed's 30 rad/s, damping 1.
+    let wn = r
+        .final_model
+        .value(
+            "tracking_lowpass",
+            zmp_models::Binding::Axis(zmp_models::Axis::X),
+            "omega_n",
+        )
+        .unwrap();
+    assert!((wn - 30.0).abs() > 1.0, "omega_n {wn}");
+}
