@@ -30,8 +30,12 @@ use zmp_validation::par::parallel_map;
 /// seeds 930055 (cubic stiffness: its linear compliance mode added, the cubic part invisible),
 /// 930027 (a delay absorbed by the low-pass beside backlash) and 930033; the changes after
 /// it: the structural mode's damping cap 0.4, the operating-point law linearised through the
-/// static map's slope, a structural mode on the second axis).
-const HELD_OUT_FIRST_SEED: u64 = 940_000;
+/// static map's slope, a structural mode on the second axis); from 940000 (run once: singles
+/// 15/21, saturation and coupling 4/6, pairs 7/12, clean 10/10, outside 7/8, closed 38/52;
+/// then examined: 940001 (backlash inside a saturating servo, not found), 940009, 940011 and
+/// 940012 (the identification kept the seed's servo low-pass and the loop stopped at the
+/// diagnosis's `parameter_refit`), which led to the loop's refit step).
+const HELD_OUT_FIRST_SEED: u64 = 950_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
