@@ -171,37 +171,19 @@ pub fn augment_observations(
     finish(&refs, fitted, &format!("+{effect}"), before, floor, opts)
 }
 
-/// The model the diagnosis fitted with `effect` added (one step of its path, fitted on every
-/// record) as a written version: fitted further to convergence, with standard errors and
-/// provenance. `model` is the version it is added to (for the error before).
-pub fn augmented_from_diagnosis(
+/// A model the diagnosis fitted as a written version: with effects added (one step of its
+/// path, `change` `+EFFECT`) or its own structure refitted (`refit`), fitted further to
+/// convergence on every record, with standard errors and provenance. `model` is the version
+/// it follows (for the error before).
+pub fn version_from_diagnosis(
     refs: &[&Observation],
     model: &ModelSpec,
     fitted: &Fitted,
-    effect: &str,
+    change: &str,
     opts: &DiagnoseOptions,
 ) -> Result<Augmented, DiagnoseError> {
     let (before, floor) = error_of(model, refs, opts)?;
-    finish(
-        refs,
-        fitted.clone(),
-        &format!("+{effect}"),
-        before,
-        floor,
-        opts,
-    )
-}
-
-/// The model's own structure refitted by the diagnosis (its verdict `parameter_refit`) as a
-/// written version (change `refit`); `model` is the version refitted.
-pub fn refitted_from_diagnosis(
-    refs: &[&Observation],
-    model: &ModelSpec,
-    fitted: &Fitted,
-    opts: &DiagnoseOptions,
-) -> Result<Augmented, DiagnoseError> {
-    let (before, floor) = error_of(model, refs, opts)?;
-    finish(refs, fitted.clone(), "refit", before, floor, opts)
+    finish(refs, fitted.clone(), change, before, floor, opts)
 }
 
 fn finish(

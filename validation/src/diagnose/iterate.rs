@@ -3,7 +3,7 @@
 //! effect it found (fitted further to convergence), diagnose again, until the model explains
 //! the data or nothing significant is left. `cargo xtask loop` writes what this returns.
 
-use super::augment::{augmented_from_diagnosis, refitted_from_diagnosis, Augmented};
+use super::augment::{version_from_diagnosis, Augmented};
 use super::engine::{self, evaluate};
 use super::measure::{aggregate, predict};
 use super::observe::Observation;
@@ -112,7 +112,7 @@ pub fn run_loop(
         if let Some(fitted) = refit {
             refitted = true;
             progress("refitting");
-            let aug = refitted_from_diagnosis(&obs, &current, &fitted, opts)?;
+            let aug = version_from_diagnosis(&obs, &current, &fitted, "refit", opts)?;
             current = aug.spec.clone();
             versions.push((Vec::new(), aug));
             continue;
@@ -126,7 +126,7 @@ pub fn run_loop(
             }
             let label = added.join("+");
             progress(&format!("adding {label}"));
-            let aug = augmented_from_diagnosis(&obs, &current, &fitted, &label, opts)?;
+            let aug = version_from_diagnosis(&obs, &current, &fitted, &format!("+{label}"), opts)?;
             current = aug.spec.clone();
             found.extend(added.iter().cloned());
             versions.push((added, aug));
