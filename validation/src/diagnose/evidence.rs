@@ -143,6 +143,32 @@ fn axes_of(params: &BTreeMap<String, (f64, f64)>) -> String {
     v.join(", ")
 }
 
+/// `(frequency, median of values)` per distinct frequency (within 1e-9 relative), ascending.
+fn median_by_frequency(w: &[f64], v: &[f64]) -> Vec<(f64, f64)> {
+    let mut idx: Vec<usize> = (0..w.len().min(v.len())).collect();
+    idx.sort_by(|&a, &b| w[a].total_cmp(&w[b]));
+    let mut out = Vec::new();
+    let mut k = 0;
+    while k < idx.len() {
+        let w0 = w[idx[k]];
+        let mut group: Vec<f64> = idx[k..]
+            .iter()
+            .take_while(|&&i| (w[i] - w0).abs() <= 1e-9 * w0.abs())
+            .map(|&i| v[i])
+            .collect();
+        k += group.len();
+        group.sort_by(f64::total_cmp);
+        let n = group.len();
+        let med = if n % 2 == 1 {
+            group[n / 2]
+        } else {
+            0.5 * (group[n / 2 - 1] + group[n / 2])
+        };
+        out.push((w0, med));
+    }
+    out
+}
+
 /// Four significant digits, plain.
 pub fn sig(v: f64) -> String {
     if v == 0.0 || !v.is_finite() {
@@ -200,33 +226,58 @@ pub fn sentence(
             );
         }
         "sensor_lowpass" | "structural_mode" => {
-            let (kmax, mmax) =
-                mag.iter()
-                    .enumerate()
-                    .fold((0, 0.0f64), |a, (k, &m)| if m > a.1 { (k, m) } else { a });
-            let (kmin, mmin) =
-                mag.iter().enumerate().fold(
-                    (0, f64::INFINITY),
-                    |a, (k, &m)| {
-                        if m < a.1 {
-                            (k, m)
-                        } else {
-                            a
-                        }
-                    },
-                );
             if effect == "structural_mode" {
-                let _ = write!(
-                    s,
-                    "measured/model magnitude peaks at {:+.1} dB near {:.2} rad/s and dips to \
-                     {:+.1} dB near {:.2} rad/s with a phase swing: a lightly damped structural \
-                     mode ({})",
-                    20.0 * mmax.max(1e-12).log10(),
-                    w.get(kmax).copied().unwrap_or(f64::NAN),
-                    20.0 * mmin.max(1e-12).log10(),
-                    w.get(kmin).copied().unwrap_or(f64::NAN),
-                    axes_of(params)
-                );
+                // Per frequency, the median over its records (records of one frequency are
+                // not a peak and a dip of the response).
+                let prof = median_by_frequency(&w, &mag);
+                let peak =
+                    prof.iter().copied().fold(
+                        (f64::NAN, 0.0f64),
+                        |a, p| {
+                            if p.1 > a.1 {
+                                p
+                            } else {
+                                a
+                            }
+                        },
+                    );
+                let dip = prof
+                    .iter()
+                    .copied()
+                    .fold(
+                        (f64::NAN, f64::INFINITY),
+                        |a, p| {
+                            if p.1 < a.1 {
+                                p
+                            } else {
+                                a
+                            }
+                        },
+                    );
+                let db = |m: f64| 20.0 * m.max(1e-12).log10();
+                if db(peak.1) >= 1.0 && peak.0 != dip.0 {
+                    let _ = write!(
+                        s,
+                        "measured/model magnitude peaks at {:+.1} dB near {:.2} rad/s and dips \
+                         to {:+.1} dB near {:.2} rad/s (medians per frequency): a lightly damped \
+                         structural mode ({})",
+                        db(peak.1),
+                        peak.0,
+                        db(dip.1),
+                        dip.0,
+                        axes_of(params)
+                    );
+                } else {
+                    let _ = write!(
+                        s,
+                        "measured/model magnitude shows no clear resonance in the band (medians \
+                         per frequency within {:+.1} to {:+.1} dB); the fitted mode ({}) bends \
+                         the response where the other parameters cannot",
+                        db(dip.1),
+                        db(peak.1),
+                        axes_of(params)
+                    );
+                }
             } else {
                 let hi = w.iter().copied().fold(0.0, f64::max);
                 let top: Vec<usize> = (0..w.len()).filter(|&k| w[k] >= 0.99 * hi).collect();
@@ -404,5 +455,17 @@ mod tests {
             "falls with omega, but not linearly"
         );
         assert_eq!(phase_words(-0.02, 0.1), "shows no clear trend with omega");
+    }
+
+    #[test]
+    fn medians_per_frequency_do_not_set_records_of_one_frequency_against_each_other() {
+        // Two records at 0.76 rad/s, one high and one low: no peak and dip there.
+        let w = [0.76, 0.76, 0.76, 3.0, 3.0, 10.0];
+        let v = [1.06, 0.94, 1.0, 1.30, 1.20, 0.99];
+        let m = median_by_frequency(&w, &v);
+        assert_eq!(m.len(), 3);
+        assert_eq!(m[0], (0.76, 1.0));
+        assert_eq!(m[1], (3.0, 1.25));
+        assert_eq!(m[2], (10.0, 0.99));
     }
 }
