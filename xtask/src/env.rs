@@ -84,12 +84,10 @@ pub fn apply_env(cmd: &mut Command, p: &Prereqs) {
     );
 }
 
-/// Root of the repository (the workspace directory containing `xtask/`).
+/// Root of the repository (the workspace directory containing `xtask/`): the one `cargo
+/// xtask` runs in (see [`zmp_fmu_core::package::workspace_root`]).
 pub fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("xtask lives one level below the workspace root")
-        .to_path_buf()
+    zmp_fmu_core::package::workspace_root()
 }
 
 /// The value `cmd` would see for `key`: an explicit override on `cmd` wins

@@ -41,12 +41,31 @@ impl Default for BuildOptions {
     }
 }
 
-/// The workspace root (where this crate was compiled from).
+/// The workspace root: the nearest directory at or above the package `cargo run` / `cargo
+/// test` runs (`CARGO_MANIFEST_DIR` at run time) whose `Cargo.toml` declares `[workspace]`;
+/// else where this crate was compiled from. Two checkouts sharing one `CARGO_TARGET_DIR`
+/// share the uplifted `target/release/xtask`, so the compiled-in path can be the other
+/// checkout's (a `cargo xtask bench` in one wrote its tables into the other).
 pub fn workspace_root() -> PathBuf {
+    if let Some(dir) = std::env::var_os("CARGO_MANIFEST_DIR") {
+        if let Some(root) = enclosing_workspace(Path::new(&dir)) {
+            return root;
+        }
+    }
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../..")
         .canonicalize()
         .unwrap_or_else(|_| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../..")))
+}
+
+/// The nearest directory at or above `start` whose `Cargo.toml` has a `[workspace]` table.
+fn enclosing_workspace(start: &Path) -> Option<PathBuf> {
+    start.ancestors().find_map(|d| {
+        let text = std::fs::read_to_string(d.join("Cargo.toml")).ok()?;
+        text.lines()
+            .any(|l| l.trim() == "[workspace]")
+            .then(|| d.canonicalize().unwrap_or_else(|_| d.to_path_buf()))
+    })
 }
 
 /// Artifacts of one `cargo build`.
@@ -317,4 +336,32 @@ pub fn build_fmus(model: &Path, out: &Path, opts: &BuildOptions) -> Result<Vec<P
         written.push(path.clone());
     }
     Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_workspace_is_the_nearest_directory_declaring_one() {
+        let base = std::env::temp_dir().join(format!("zmp-ws-test-{}", std::process::id()));
+        let pkg = base.join("ws/tools/xtask");
+        std::fs::create_dir_all(&pkg).unwrap();
+        std::fs::write(
+            base.join("ws/Cargo.toml"),
+            "[workspace]\nmembers = [\"tools/xtask\"]\n",
+        )
+        .unwrap();
+        std::fs::write(pkg.join("Cargo.toml"), "[package]\nname = \"xtask\"\n").unwrap();
+        let found = enclosing_workspace(&pkg).unwrap();
+        assert_eq!(found, base.join("ws").canonicalize().unwrap());
+        // A package outside any workspace: none (the compiled-in root is used).
+        let lone = base.join("lone");
+        std::fs::create_dir_all(&lone).unwrap();
+        std::fs::write(lone.join("Cargo.toml"), "[package]\nname = \"lone\"\n").unwrap();
+        assert!(enclosing_workspace(&lone).is_none_or(|r| !r.starts_with(&base)));
+        // This crate's own tests run in this workspace.
+        assert!(workspace_root().join("fmu/core/Cargo.toml").exists());
+        std::fs::remove_dir_all(&base).unwrap();
+    }
 }
