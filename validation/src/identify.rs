@@ -63,6 +63,10 @@ pub const SEED_BANDWIDTH: (f64, f64) = (30.0, 1.0);
 /// low-pass is compared with a low-pass and a delay).
 pub const POOR_FIT: f64 = 4.0;
 
+/// Chi-square drop that one added parameter must bring to be kept (likelihood-ratio test at
+/// p = 0.001).
+const LIKELIHOOD_RATIO_1DOF: f64 = 10.83;
+
 /// The pendulum and low-pass fitted again with a pure delay in front: what a low-pass that
 /// absorbed a delay would have been.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -1142,7 +1146,36 @@ fn pendulum_fit(
              {:.3} +- {:.3}",
             p[8], free.stderr[8], p[9], free.stderr[9]
         );
-        Ok((free, true, note))
+        return Ok((free, true, note));
+    }
+    // A band that ends well below omega_n determines the low-pass's phase lag, about
+    // 2 zeta w / omega_n, but not omega_n and zeta apart: fit omega_n with zeta held, and keep it
+    // when it is determined and the likelihood-ratio test prefers it to the given low-pass
+    // (chi-square drop above 10.83, p = 0.001 for one parameter, in units of the reduced
+    // chi-square when the fit is worse than its noise).
+    let mut with_wn = core.clone();
+    with_wn.push(8);
+    let one = fit::levenberg_marquardt(fixed.params, pts, &with_wn);
+    let scale = if one.dof > 0 {
+        (one.chi2 / one.dof as f64).max(1.0)
+    } else {
+        f64::INFINITY
+    };
+    let wn = one.params[8];
+    if one.params.iter().all(|v| v.is_finite())
+        && wn > 0.5
+        && wn < 1e4
+        && one.stderr[8] / wn < 0.25
+        && (fixed.chi2 - one.chi2) / scale > LIKELIHOOD_RATIO_1DOF
+    {
+        let note = format!(
+            "tracking low-pass: omega_n = {:.2} +- {:.2} rad/s estimated from the data with \
+             zeta held at {z0} (the data determine the phase lag, not omega_n and zeta apart: \
+             both free gave omega_n = {:.3e} +- {:.1e}, zeta = {:.3e} +- {:.1e}); the errors of \
+             a, b do not include zeta's uncertainty",
+            wn, one.stderr[8], p[8], free.stderr[8], p[9], free.stderr[9]
+        );
+        Ok((one, true, note))
     } else {
         Ok((
             fixed,
