@@ -308,15 +308,66 @@ fn acceleration_saturation(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
         w * w * h * r.amplitude_max
     };
     let acc = peak(r.omega_max).max(1e-6);
-    per_axis(
-        spec,
-        r,
-        "acceleration_saturation",
-        "limit",
-        &[0.4 * acc, 0.8 * acc],
-        0.02 * acc,
-        2.0 * acc,
-    )
+    let (min, max) = (0.02 * acc, 2.0 * acc);
+    if !spec.has("acceleration_saturation") {
+        return per_axis(
+            spec,
+            r,
+            "acceleration_saturation",
+            "limit",
+            &[0.4 * acc, 0.8 * acc],
+            min,
+            max,
+        );
+    }
+    // The model has a limit already (the identification's, from records it judged saturated).
+    // A limit above everything the campaign demands of an axis never acts, so a fit cannot
+    // move it (no gradient): restart such an axis from below the demand, the active axes
+    // from their values. Physical reason: the servo's force limit is an acceleration limit
+    // that differs per axis with the inertia it moves (a flexible link, a heavier drive).
+    let inactive: Vec<Binding> = AXES
+        .iter()
+        .zip(r.axes_excited)
+        .filter(|(b, e)| {
+            *e && spec
+                .value("acceleration_saturation", **b, "limit")
+                .is_some_and(|l| l >= acc)
+        })
+        .map(|(b, _)| *b)
+        .collect();
+    if inactive.is_empty() {
+        return Vec::new();
+    }
+    [0.4 * acc, 0.8 * acc]
+        .iter()
+        .map(|&v| {
+            let mut s = spec.clone();
+            let frees = AXES
+                .iter()
+                .zip(r.axes_excited)
+                .filter(|(_, e)| *e)
+                .map(|(b, _)| {
+                    let value = if inactive.contains(b) {
+                        v
+                    } else {
+                        spec.value("acceleration_saturation", *b, "limit")
+                            .unwrap_or(v)
+                            .clamp(min, max)
+                    };
+                    add_effect(&mut s, "acceleration_saturation", &[*b], &[value]);
+                    Free::new(
+                        "acceleration_saturation",
+                        vec![*b],
+                        "limit",
+                        value,
+                        min,
+                        max,
+                    )
+                })
+                .collect();
+            (s, frees)
+        })
+        .collect()
 }
 
 fn sensor_lowpass(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
@@ -643,5 +694,68 @@ pub fn model_kinds(effect: &str) -> &[&str] {
         "operating_point_dependence" => &["operating_point_dependence"],
         "sensor_drift" => &["sensor_drift"],
         _ => &[],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn paper_with_limits(x: f64, y: f64) -> ModelSpec {
+        let mut spec = ModelSpec::parse(
+            include_str!("../../../models/params/silo2-paper.toml"),
+            "silo2-paper.toml",
+        )
+        .unwrap();
+        add_effect(&mut spec, "acceleration_saturation", &[AXES[0]], &[x]);
+        add_effect(&mut spec, "acceleration_saturation", &[AXES[1]], &[y]);
+        spec
+    }
+
+    fn range() -> DataRange {
+        DataRange {
+            omega_min: 0.5,
+            omega_max: 15.0,
+            amplitude_min: 0.003,
+            amplitude_max: 0.008,
+            op_span: [0.06, 0.04],
+            axes_excited: [true, true],
+        }
+    }
+
+    /// A limit that no record reaches has no gradient: the candidate restarts it from below
+    /// the campaign's largest demand and keeps the limit that acts; with both acting it has
+    /// nothing to offer.
+    #[test]
+    fn saturation_restarts_only_a_limit_that_never_acts() {
+        let r = range();
+        // The seed's servo (30 rad/s, zeta 1) at 15 rad/s, 8 mm: 1.44 m/s2 demanded.
+        let demand = 225.0 * 0.008 * 900.0 / ((900.0f64 - 225.0).powi(2) + 900.0f64 * 900.0).sqrt();
+        let starts = acceleration_saturation(&paper_with_limits(1.0, 2.0 * demand), &r);
+        assert_eq!(starts.len(), 2);
+        for (k, (spec, frees)) in starts.iter().enumerate() {
+            let fac = [0.4, 0.8][k];
+            let y = spec
+                .value("acceleration_saturation", AXES[1], "limit")
+                .unwrap();
+            assert!((y / (fac * demand) - 1.0).abs() < 1e-9, "y limit {y}");
+            assert_eq!(
+                spec.value("acceleration_saturation", AXES[0], "limit"),
+                Some(1.0)
+            );
+            assert_eq!(frees.len(), 2);
+            assert_eq!(frees[1].bounds.value, y);
+            assert_eq!(frees[0].bounds.value, 1.0);
+        }
+        assert!(acceleration_saturation(&paper_with_limits(1.0, 0.9 * demand), &r).is_empty());
+        // Without a limit: both axes from each start.
+        let plain = ModelSpec::parse(
+            include_str!("../../../models/params/silo2-paper.toml"),
+            "silo2-paper.toml",
+        )
+        .unwrap();
+        let fresh = acceleration_saturation(&plain, &r);
+        assert_eq!(fresh.len(), 2);
+        assert!(fresh.iter().all(|(_, f)| f.len() == 2));
     }
 }

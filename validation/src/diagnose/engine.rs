@@ -382,7 +382,8 @@ pub fn score_candidate(c: &Candidate, base: &ModelSpec, obs: &[&Observation]) ->
 
 /// Whether catalogue effect `effect` can be added to `base` (not there yet; cross-coupling
 /// while the model leaves a coupling term at zero; a structural mode while an axis has none:
-/// the two trunk planes ring apart, and a fit of both at once can settle on one).
+/// the two trunk planes ring apart, and a fit of both at once can settle on one; the
+/// acceleration limit always, its candidate restarts a limit that never acts).
 pub fn addable(effect: &str, base: &ModelSpec) -> bool {
     if effect == "cross_coupling" {
         return ["a12", "a21", "b12", "b21"]
@@ -391,6 +392,11 @@ pub fn addable(effect: &str, base: &ModelSpec) -> bool {
     }
     if effect == "structural_mode" {
         return mode_free_axes(base).iter().any(|&f| f);
+    }
+    // A limit already there is restarted where it never acts (the candidate has no start
+    // when it acts on every excited axis).
+    if effect == "acceleration_saturation" {
+        return true;
     }
     !model_kinds(effect).iter().any(|k| base.has(k))
 }
