@@ -143,6 +143,37 @@ fn axes_of(params: &BTreeMap<String, (f64, f64)>) -> String {
     v.join(", ")
 }
 
+/// The unit direction of the line the campaign's operating points lie on, when there are at
+/// least two distinct ones and all lie on one line (within 1 % of their spread); `None` when
+/// they span the plane (then the x and y slopes are determined apart).
+fn op_line(obs: &[&Observation]) -> Option<[f64; 2]> {
+    let first = obs.first()?.operating_point;
+    let far = obs
+        .iter()
+        .map(|o| {
+            [
+                o.operating_point[0] - first[0],
+                o.operating_point[1] - first[1],
+            ]
+        })
+        .max_by(|a, b| a[0].hypot(a[1]).total_cmp(&b[0].hypot(b[1])))?;
+    let len = far[0].hypot(far[1]);
+    if len <= 0.0 {
+        return None;
+    }
+    let u = [far[0] / len, far[1] / len];
+    let off_line = obs.iter().any(|o| {
+        let d = [
+            o.operating_point[0] - first[0],
+            o.operating_point[1] - first[1],
+        ];
+        (d[0] * u[1] - d[1] * u[0]).abs() > 0.01 * len
+    });
+    // Point the direction into the positive quadrant's half-plane, for a stable sign.
+    let sign = if u[0] + u[1] < 0.0 { -1.0 } else { 1.0 };
+    (!off_line).then(|| [sign * u[0], sign * u[1]])
+}
+
 /// `(frequency, median of values)` per distinct frequency (within 1e-9 relative), ascending.
 fn median_by_frequency(w: &[f64], v: &[f64]) -> Vec<(f64, f64)> {
     let mut idx: Vec<usize> = (0..w.len().min(v.len())).collect();
@@ -344,6 +375,24 @@ pub fn sentence(
                 100.0 * spread,
                 axes_of(params)
             );
+            if let Some(u) = op_line(obs) {
+                let get = |k: &str| {
+                    params
+                        .iter()
+                        .find(|(n, _)| n.ends_with(k))
+                        .map_or(0.0, |(_, v)| v.0)
+                };
+                let _ = write!(
+                    s,
+                    "; the operating points lie on one line (direction x {:.2}, y {:.2}), so \
+                     only the slopes along it are determined, not the x and y ones apart: da = \
+                     {} and db = {} per m along the line",
+                    u[0],
+                    u[1],
+                    sig(u[0] * get("da_dx") + u[1] * get("da_dy")),
+                    sig(u[0] * get("db_dx") + u[1] * get("db_dy"))
+                );
+            }
         }
         "sensor_drift" => {
             let mut sl = [0.0f64; 2];
@@ -447,5 +496,40 @@ mod tests {
         assert_eq!(m[0], (0.76, 1.0));
         assert_eq!(m[1], (3.0, 1.30)); // the upper median of an even count, as `median`
         assert_eq!(m[2], (10.0, 0.99));
+    }
+
+    #[test]
+    fn operating_points_on_a_line_are_said_to_determine_only_the_slope_along_it() {
+        let at = |op: [f64; 2]| Observation {
+            index: 0,
+            excited: zmp_models::Axis::X,
+            omega: 1.0,
+            operating_point: op,
+            nominal_amplitude: 0.003,
+            t0: 0.0,
+            t1: 1.0,
+            u1: Complex64::new(0.0, 0.003),
+            y1: [Complex64::new(0.0, 0.003); 2],
+            y1_var: [1e-10; 2],
+            y3: [Complex64::new(0.0, 0.0); 2],
+            slope: [0.0; 2],
+            slope_var: [1e-12; 2],
+            noise_std: [1e-4; 2],
+            samples: 100,
+        };
+        // The blind suite's design: (0, 0), (0.03, 0.02), (-0.03, -0.02).
+        let line = [at([0.0, 0.0]), at([0.03, 0.02]), at([-0.03, -0.02])];
+        let refs: Vec<&Observation> = line.iter().collect();
+        let u = op_line(&refs).expect("on a line");
+        let n = 0.03f64.hypot(0.02);
+        assert!((u[0] - 0.03 / n).abs() < 1e-12 && (u[1] - 0.02 / n).abs() < 1e-12);
+        // The reference design's: (0, 0), (0.02, 0), (0, 0.02) span the plane.
+        let plane = [at([0.0, 0.0]), at([0.02, 0.0]), at([0.0, 0.02])];
+        let refs: Vec<&Observation> = plane.iter().collect();
+        assert_eq!(op_line(&refs), None);
+        // One operating point: no line either.
+        let one = [at([0.01, 0.0]), at([0.01, 0.0])];
+        let refs: Vec<&Observation> = one.iter().collect();
+        assert_eq!(op_line(&refs), None);
     }
 }
