@@ -34,8 +34,12 @@ use zmp_validation::par::parallel_map;
 /// 15/21, saturation and coupling 4/6, pairs 7/12, clean 10/10, outside 7/8, closed 38/52;
 /// then examined: 940001 (backlash inside a saturating servo, not found), 940009, 940011 and
 /// 940012 (the identification kept the seed's servo low-pass and the loop stopped at the
-/// diagnosis's `parameter_refit`), which led to the loop's refit step).
-const HELD_OUT_FIRST_SEED: u64 = 950_000;
+/// diagnosis's `parameter_refit`), which led to the loop's refit step); from 950000 (run
+/// once: singles 17/21, saturation and coupling 5/6, pairs 8/12, clean 10/10, outside 6/8,
+/// closed 35/52; its summary lines were read, no draw of it was examined; the changes after
+/// it, made on development seeds 11 and 31: the identification's omega_n with zeta held,
+/// the restart of a saturation limit that never acts, the op-line evidence words).
+const HELD_OUT_FIRST_SEED: u64 = 960_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
