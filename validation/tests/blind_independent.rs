@@ -38,8 +38,11 @@ use zmp_validation::par::parallel_map;
 /// once: singles 17/21, saturation and coupling 5/6, pairs 8/12, clean 10/10, outside 6/8,
 /// closed 35/52; its summary lines were read, no draw of it was examined; the changes after
 /// it, made on development seeds 11 and 31: the identification's omega_n with zeta held,
-/// the restart of a saturation limit that never acts, the op-line evidence words).
-const HELD_OUT_FIRST_SEED: u64 = 960_000;
+/// the restart of a saturation limit that never acts, the op-line evidence words); from
+/// 960000 (run once: singles 18/21, saturation and coupling 6/6, pairs 9/12, clean 10/10,
+/// outside 4/8, closed 39/52; then examined: 960020, Coulomb friction identified with a limit
+/// far too low, which led to the loop taking a refit that removes most of the error).
+const HELD_OUT_FIRST_SEED: u64 = 970_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 

@@ -101,9 +101,9 @@ pub fn run_loop(
             })
             .cloned()
             .collect();
-        // The model's own structure refitted explains the data (the identification's fit and
-        // the diagnosis's likelihood disagree, e.g. on the saturation limit): that refit is
-        // the next version, diagnosed again; once.
+        // The model's own structure refitted explains the data, or removes most of its error
+        // (the identification's fit and the diagnosis's likelihood disagree, e.g. on the
+        // saturation limit): that refit is the next version, diagnosed again; once.
         let refit = match (&d.refit, steps.is_empty() && !refitted) {
             (Some(f), true) => Some(f.clone()),
             _ => None,

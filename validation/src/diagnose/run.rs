@@ -21,6 +21,10 @@ use zmp_models::{Axis, Binding, Channel, ModelSpec};
 /// Format name of the JSON report.
 pub const DIAGNOSIS_FORMAT: &str = "zmp-diagnosis/1";
 
+/// Held-out error of the model's own structure refitted, as a fraction of the model's, below
+/// which an unexplained diagnosis still hands the refit to the loop.
+pub const REFIT_ADOPT: f64 = 0.5;
+
 pub use super::select::MAX_EFFECTS;
 
 #[derive(Debug, thiserror::Error)]
@@ -101,7 +105,8 @@ pub struct Diagnosis {
     /// model with them fitted on all records (every parameter free).
     pub path: Vec<(Vec<String>, super::engine::Fitted)>,
     /// With the verdict `parameter_refit`: the model's own structure refitted, which explains
-    /// the data.
+    /// the data; with `unexplained` and no effect added: that refit when its held-out error is
+    /// below [`REFIT_ADOPT`] of the model's (the loop's next version).
     pub refit: Option<super::engine::Fitted>,
     pub final_error: f64,
     /// Cells of the starting model, worst first.
@@ -399,6 +404,13 @@ pub fn diagnose_observations(
             refit = Some(root.fitted.clone());
             "parameter_refit".to_string()
         } else {
+            // The refit does not explain the data but removes most of the error (a limit
+            // the identification set far too low, a low-pass that absorbed an effect): the
+            // loop takes it as the next version and diagnoses again from it, rather than
+            // stopping at a model that is many times worse than its own structure can be.
+            if root.error < REFIT_ADOPT * baseline {
+                refit = Some(root.fitted.clone());
+            }
             "unexplained".to_string()
         };
         if verdict == "parameter_refit" {
@@ -426,7 +438,21 @@ pub fn diagnose_observations(
         }
         if !explained && verdict != "parameter_refit" {
             let where_ = significant_cells(cells(&obs, &current_preds));
-            let mut text = if selected.is_empty() {
+            let mut text = if selected.is_empty() && refit.is_some() {
+                format!(
+                    "the model's own structure with its parameters refitted brings the error \
+                     from {:.1}x to {:.1}x the noise floor on held-out records (identify the \
+                     campaign again, or let the loop take the refit); beyond that no catalogued \
+                     effect removes a significant part (best: {})",
+                    baseline / floor,
+                    refit_error / floor,
+                    tried.first().map_or("none fitted".to_string(), |t| format!(
+                        "{} at {:.1}x",
+                        t.0,
+                        t.1 / floor
+                    ))
+                )
+            } else if selected.is_empty() {
                 format!(
                     "an error of {:.1}x the noise floor remains that no catalogued effect \
                      removes (best: {})",
