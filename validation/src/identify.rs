@@ -1131,16 +1131,18 @@ fn pendulum_fit(
             format!("tracking low-pass given (omega_n = {wn0} rad/s, zeta = {z0}), not estimated"),
         ));
     }
+    // Parameter `k` of a fit is determined: finite, in its plausible range, relative standard
+    // error below 25 %.
+    let determined = |lm: &fit::LmResult, k: usize, (lo, hi): (f64, f64)| {
+        lm.params.iter().all(|v| v.is_finite())
+            && lm.params[k] > lo
+            && lm.params[k] < hi
+            && lm.stderr[k] / lm.params[k] < 0.25
+    };
+    const WN_RANGE: (f64, f64) = (0.5, 1e4);
     let free = fit::levenberg_marquardt(fixed.params, pts, &all);
     let p = free.params;
-    let ok = free.params.iter().all(|v| v.is_finite())
-        && p[8] > 0.5
-        && p[8] < 1e4
-        && p[9] > 0.01
-        && p[9] < 100.0
-        && free.stderr[8] / p[8] < 0.25
-        && free.stderr[9] / p[9] < 0.25;
-    if ok {
+    if determined(&free, 8, WN_RANGE) && determined(&free, 9, (0.01, 100.0)) {
         let note = format!(
             "tracking low-pass estimated from the data: omega_n = {:.2} +- {:.2} rad/s, zeta = \
              {:.3} +- {:.3}",
@@ -1162,12 +1164,7 @@ fn pendulum_fit(
         f64::INFINITY
     };
     let wn = one.params[8];
-    if one.params.iter().all(|v| v.is_finite())
-        && wn > 0.5
-        && wn < 1e4
-        && one.stderr[8] / wn < 0.25
-        && (fixed.chi2 - one.chi2) / scale > LIKELIHOOD_RATIO_1DOF
-    {
+    if determined(&one, 8, WN_RANGE) && (fixed.chi2 - one.chi2) / scale > LIKELIHOOD_RATIO_1DOF {
         let note = format!(
             "tracking low-pass: omega_n = {:.2} +- {:.2} rad/s estimated from the data with \
              zeta held at {z0} (the data determine the phase lag, not omega_n and zeta apart: \

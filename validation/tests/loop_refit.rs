@@ -13,6 +13,7 @@
 
 use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Scenario};
 use zmp_validation::campaign::read_campaign;
+use zmp_validation::diagnose::augment::Augmented;
 use zmp_validation::diagnose::iterate::{run_loop, LoopResult};
 use zmp_validation::diagnose::DiagnoseOptions;
 use zmp_validation::identify::IdentifyOptions;
@@ -42,6 +43,15 @@ fn loop_on(seed: u64, scenario: &str) -> LoopResult {
     run_loop(&camp, None, &IdentifyOptions::default(), &opts, &|_| {}).unwrap()
 }
 
+/// The loop's versions that refit the structure without adding an effect.
+fn refit_versions(r: &LoopResult) -> Vec<&Augmented> {
+    r.versions
+        .iter()
+        .filter(|(added, aug)| added.is_empty() && aug.change == "refit")
+        .map(|(_, aug)| aug)
+        .collect()
+}
+
 #[test]
 fn the_loop_adopts_the_refitted_structure_when_it_explains_the_data() {
     let r = loop_on(940_012, "single:acceleration_saturation");
@@ -55,13 +65,9 @@ fn the_loop_adopts_the_refitted_structure_when_it_explains_the_data() {
     // No effect is added (the limit is the seed's own structure) ...
     assert!(r.found.is_empty(), "effects added: {:?}", r.found);
     // ... the refit is a version of its own ...
-    let refits: Vec<_> = r
-        .versions
-        .iter()
-        .filter(|(added, aug)| added.is_empty() && aug.change == "refit")
-        .collect();
+    let refits = refit_versions(&r);
     assert_eq!(refits.len(), 1, "versions: {:?}", r.versions.len());
-    let aug = &refits[0].1;
+    let aug = refits[0];
     assert!(aug.error_after < 0.6 * aug.error_before);
     // ... and the loop ends explained, within 1.5x the floor.
     assert!(r.explained, "final error {:.2}x", r.final_error / floor);
@@ -87,13 +93,9 @@ fn the_loop_takes_a_refit_that_removes_most_of_the_error() {
         "identified at {:.2}x the floor: this draw no longer tests the refit",
         r.identified_error / floor
     );
-    let refits: Vec<_> = r
-        .versions
-        .iter()
-        .filter(|(added, aug)| added.is_empty() && aug.change == "refit")
-        .collect();
+    let refits = refit_versions(&r);
     assert_eq!(refits.len(), 1, "versions: {}", r.versions.len());
-    assert!(refits[0].1.error_after < 0.2 * refits[0].1.error_before);
+    assert!(refits[0].error_after < 0.2 * refits[0].error_before);
     // The loop's last model is within 2x the floor (it ended at 19.3x).
     assert!(
         r.final_error < 2.0 * floor,

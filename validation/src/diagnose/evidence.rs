@@ -148,7 +148,7 @@ fn axes_of(params: &BTreeMap<String, (f64, f64)>) -> String {
 /// they span the plane (then the x and y slopes are determined apart).
 fn op_line(obs: &[&Observation]) -> Option<[f64; 2]> {
     let first = obs.first()?.operating_point;
-    let far = obs
+    let d: Vec<[f64; 2]> = obs
         .iter()
         .map(|o| {
             [
@@ -156,19 +156,19 @@ fn op_line(obs: &[&Observation]) -> Option<[f64; 2]> {
                 o.operating_point[1] - first[1],
             ]
         })
+        .collect();
+    let far = d
+        .iter()
+        .copied()
         .max_by(|a, b| a[0].hypot(a[1]).total_cmp(&b[0].hypot(b[1])))?;
     let len = far[0].hypot(far[1]);
     if len <= 0.0 {
         return None;
     }
     let u = [far[0] / len, far[1] / len];
-    let off_line = obs.iter().any(|o| {
-        let d = [
-            o.operating_point[0] - first[0],
-            o.operating_point[1] - first[1],
-        ];
-        (d[0] * u[1] - d[1] * u[0]).abs() > 0.01 * len
-    });
+    let off_line = d
+        .iter()
+        .any(|p| (p[0] * u[1] - p[1] * u[0]).abs() > 0.01 * len);
     // Point the direction into the positive quadrant's half-plane, for a stable sign.
     let sign = if u[0] + u[1] < 0.0 { -1.0 } else { 1.0 };
     (!off_line).then(|| [sign * u[0], sign * u[1]])
