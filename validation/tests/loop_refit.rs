@@ -11,37 +11,12 @@
 //! identification set the acceleration limit at 0.51 m/s2 against the robot's 1.31, the
 //! model scored 19.3x its floor, the refit 1.3x, and the loop stopped at 19.3x).
 
-use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Scenario};
-use zmp_validation::campaign::read_campaign;
-use zmp_validation::diagnose::augment::Augmented;
-use zmp_validation::diagnose::iterate::{run_loop, LoopResult};
-use zmp_validation::diagnose::DiagnoseOptions;
-use zmp_validation::identify::IdentifyOptions;
+#[path = "support/indep_loop.rs"]
+mod indep_loop;
 
-/// The loop on draw `seed` of `scenario` from the independent simulator.
-fn loop_on(seed: u64, scenario: &str) -> LoopResult {
-    let design = Design::default();
-    let dir = tempfile::tempdir().unwrap();
-    let scenario: Scenario = scenario.parse().unwrap();
-    let robot = draw_with(
-        seed,
-        &scenario,
-        &design,
-        &DrawOptions {
-            coupling_form: Some(CouplingForm::Pendulum),
-        },
-    );
-    let camp_dir = dir.path().join("campaign");
-    write_campaign(&robot, &design, &camp_dir, true).unwrap();
-    let camp = read_campaign(&camp_dir).unwrap();
-    let opts = DiagnoseOptions {
-        campaign_path: camp_dir.display().to_string(),
-        model_path: "identified.toml".into(),
-        threads: 2,
-        ..DiagnoseOptions::default()
-    };
-    run_loop(&camp, None, &IdentifyOptions::default(), &opts, &|_| {}).unwrap()
-}
+use indep_loop::loop_on;
+use zmp_validation::diagnose::augment::Augmented;
+use zmp_validation::diagnose::iterate::LoopResult;
 
 /// The loop's versions that refit the structure without adding an effect.
 fn refit_versions(r: &LoopResult) -> Vec<&Augmented> {

@@ -127,6 +127,85 @@ fn amplitude_contrast(obs: &[&Observation], r: &[(usize, Complex64)]) -> Option<
     ))
 }
 
+/// How the smallest amplitude's response compares with the largest's at the same frequency,
+/// axis and operating point, against a model (`base`): `gain` the small one's over the large
+/// one's and `lag` the small one's extra phase lag (rad), as inverse-variance weighted means
+/// of the log-ratio over the pairs (each record's first-harmonic noise), with their standard
+/// errors.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AmplitudeDependence {
+    pub pairs: usize,
+    /// Weighted mean of `ln |q|` (negative: the small amplitude responds less).
+    pub log_gain: f64,
+    /// Weighted mean of the extra lag, rad (positive: the small amplitude lags more).
+    pub lag: f64,
+    /// Standard error of either (the same for the log-magnitude and the phase).
+    pub std_error: f64,
+}
+
+/// Standard errors an amplitude dependence must reach to be taken as shown by the data (five:
+/// the standard error counts the noise only, and the models' own small misfits, not noise,
+/// decide such contrasts in low-noise records).
+pub const AMPLITUDE_Z: f64 = 5.0;
+
+impl AmplitudeDependence {
+    /// Whether the data show the small amplitude responding less or later than the large one
+    /// (what play and friction do) beyond [`AMPLITUDE_Z`] standard errors.
+    pub fn shown(&self) -> bool {
+        -self.log_gain >= AMPLITUDE_Z * self.std_error || self.lag >= AMPLITUDE_Z * self.std_error
+    }
+}
+
+/// The [`AmplitudeDependence`] of the measurements against `base`; `None` when the campaign
+/// has no pair of records that differ only in amplitude.
+pub fn amplitude_dependence(
+    obs: &[&Observation],
+    base: &[Prediction],
+) -> Option<AmplitudeDependence> {
+    let r = ratios(obs, base);
+    let amps: Vec<f64> = obs.iter().map(|o| o.nominal_amplitude).collect();
+    let lo = amps.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = amps.iter().copied().fold(0.0, f64::max);
+    if hi <= lo * 1.01 {
+        return None;
+    }
+    let rel_var = |o: &Observation| {
+        let j = o.excited.index();
+        o.y1_var[j] / o.y1[j].norm_sqr().max(1e-300)
+    };
+    let (mut sw, mut sg, mut sp, mut n) = (0.0, 0.0, 0.0, 0);
+    for &(k, rk) in &r {
+        let o = obs[k];
+        if (o.nominal_amplitude - lo).abs() > 1e-12 {
+            continue;
+        }
+        let Some(&(m, rh)) = r.iter().find(|(m, _)| {
+            let p = obs[*m];
+            p.excited == o.excited
+                && (p.omega - o.omega).abs() <= 1e-9 * o.omega
+                && p.operating_point == o.operating_point
+                && (p.nominal_amplitude - hi).abs() <= 1e-12
+        }) else {
+            continue;
+        };
+        let q = (rk / rh).ln();
+        let var = rel_var(o) + rel_var(obs[m]);
+        if !(var > 0.0 && q.re.is_finite() && q.im.is_finite()) {
+            continue;
+        }
+        sw += 1.0 / var;
+        sg += q.re / var;
+        sp += -q.im / var;
+        n += 1;
+    }
+    (n > 0).then(|| AmplitudeDependence {
+        pairs: n,
+        log_gain: sg / sw,
+        lag: sp / sw,
+        std_error: sw.sqrt().recip(),
+    })
+}
+
 fn axes_of(params: &BTreeMap<String, (f64, f64)>) -> String {
     let mut v: Vec<String> = params
         .iter()
@@ -312,20 +391,33 @@ pub fn sentence(
             } else {
                 "Coulomb friction decelerating the CoM"
             };
-            match amplitude_contrast(obs, &r) {
-                Some((g, p, low)) => {
+            match (amplitude_contrast(obs, &r), amplitude_dependence(obs, base)) {
+                (Some((g, p, low)), Some(d)) => {
+                    let words = if d.shown() {
+                        format!("the response depends on amplitude, as with {what}")
+                    } else {
+                        format!(
+                            "within the noise the response does not depend on amplitude as \
+                             with {what} (weighted by the records' noise: gain {:+.2} %, lag \
+                             {:+.2} deg, +- {:.2} % / {:.2} deg)",
+                            100.0 * d.log_gain,
+                            d.lag.to_degrees(),
+                            100.0 * d.std_error,
+                            d.std_error.to_degrees()
+                        )
+                    };
                     let _ = write!(
                         s,
                         "the smallest amplitude's gain is {:.1} % below the largest's at the same \
                          frequencies ({:.1} % at the lowest third), with {:.1} deg more phase lag: \
-                         the response depends on amplitude, as with {what} ({})",
+                         {words} ({})",
                         100.0 * (1.0 - g),
                         100.0 * (1.0 - low),
                         -p,
                         axes_of(params)
                     );
                 }
-                None => {
+                _ => {
                     let _ = write!(
                         s,
                         "gain below the model by {:.1} % (median): {what} ({})",
@@ -531,5 +623,65 @@ mod tests {
         let one = [at([0.01, 0.0]), at([0.01, 0.0])];
         let refs: Vec<&Observation> = one.iter().collect();
         assert_eq!(op_line(&refs), None);
+    }
+
+    #[test]
+    fn amplitude_dependence_is_shown_only_when_the_small_sines_respond_less_or_later() {
+        // Pairs of records at five frequencies: 3 mm and 8 mm, the model the identity.
+        let rec = |omega: f64, amp: f64, g: Complex64, var: f64| Observation {
+            index: 0,
+            excited: zmp_models::Axis::X,
+            omega,
+            operating_point: [0.0, 0.0],
+            nominal_amplitude: amp,
+            t0: 0.0,
+            t1: 10.0,
+            u1: Complex64::new(amp, 0.0),
+            y1: [g * amp, Complex64::new(0.0, 0.0)],
+            y1_var: [var * amp * amp, 1e-12],
+            y3: [Complex64::new(0.0, 0.0); 2],
+            slope: [0.0; 2],
+            slope_var: [1e-12; 2],
+            noise_std: [1e-4; 2],
+            samples: 100,
+        };
+        let pred = Prediction {
+            g: [Complex64::new(1.0, 0.0), Complex64::new(0.0, 0.0)],
+            slope: [0.0; 2],
+        };
+        let campaign = |small: Complex64, rel_sd: f64| -> Option<AmplitudeDependence> {
+            let mut v = Vec::new();
+            for w in [0.5, 1.0, 2.0, 4.0, 8.0] {
+                v.push(rec(w, 0.003, small, rel_sd * rel_sd));
+                v.push(rec(w, 0.008, Complex64::new(1.0, 0.0), rel_sd * rel_sd));
+            }
+            let refs: Vec<&Observation> = v.iter().collect();
+            amplitude_dependence(&refs, &vec![pred; refs.len()])
+        };
+        // A play: the 3 mm sines 2 % smaller and 1 degree later, 0.1 % noise per record.
+        let play = Complex64::from_polar(0.98, -1f64.to_radians());
+        let d = campaign(play, 1e-3).unwrap();
+        assert_eq!(d.pairs, 5);
+        assert!((d.log_gain - 0.98f64.ln()).abs() < 1e-9, "{d:?}");
+        assert!((d.lag - 1f64.to_radians()).abs() < 1e-9, "{d:?}");
+        // Standard error: the two records' relative variances per pair (0.1 % of each one's
+        // own response), over five pairs.
+        let pair_var = 1e-6 * (1.0 / (0.98f64 * 0.98) + 1.0);
+        assert!(
+            (d.std_error - (pair_var / 5.0).sqrt()).abs() < 1e-12,
+            "{d:?}"
+        );
+        assert!(d.shown());
+        // The same contrast in 5 % noise per record is not shown (0.7 standard errors).
+        assert!(!campaign(play, 0.05).unwrap().shown());
+        // Small sines responding more and earlier: not what play or friction do.
+        let opposite = Complex64::from_polar(1.02, 1f64.to_radians());
+        assert!(!campaign(opposite, 1e-3).unwrap().shown());
+        // One amplitude only: nothing to compare.
+        let one: Vec<Observation> = (0..3)
+            .map(|k| rec(1.0 + k as f64, 0.003, play, 1e-6))
+            .collect();
+        let refs: Vec<&Observation> = one.iter().collect();
+        assert!(amplitude_dependence(&refs, &[pred; 3]).is_none());
     }
 }

@@ -1,0 +1,33 @@
+//! The user's loop on one draw of the independent simulator (`zmp-indep-sim`, which shares
+//! no physics code with `zmp-models`), as a test sees it.
+
+use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Scenario};
+use zmp_validation::campaign::read_campaign;
+use zmp_validation::diagnose::iterate::{run_loop, LoopResult};
+use zmp_validation::diagnose::DiagnoseOptions;
+use zmp_validation::identify::IdentifyOptions;
+
+/// The loop on draw `seed` of `scenario` from the independent simulator.
+pub fn loop_on(seed: u64, scenario: &str) -> LoopResult {
+    let design = Design::default();
+    let dir = tempfile::tempdir().unwrap();
+    let scenario: Scenario = scenario.parse().unwrap();
+    let robot = draw_with(
+        seed,
+        &scenario,
+        &design,
+        &DrawOptions {
+            coupling_form: Some(CouplingForm::Pendulum),
+        },
+    );
+    let camp_dir = dir.path().join("campaign");
+    write_campaign(&robot, &design, &camp_dir, true).unwrap();
+    let camp = read_campaign(&camp_dir).unwrap();
+    let opts = DiagnoseOptions {
+        campaign_path: camp_dir.display().to_string(),
+        model_path: "identified.toml".into(),
+        threads: 2,
+        ..DiagnoseOptions::default()
+    };
+    run_loop(&camp, None, &IdentifyOptions::default(), &opts, &|_| {}).unwrap()
+}
