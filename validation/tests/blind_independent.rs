@@ -41,8 +41,12 @@ use zmp_validation::par::parallel_map;
 /// the restart of a saturation limit that never acts, the op-line evidence words); from
 /// 960000 (run once: singles 18/21, saturation and coupling 6/6, pairs 9/12, clean 10/10,
 /// outside 4/8, closed 39/52; then examined: 960020, Coulomb friction identified with a limit
-/// far too low, which led to the loop taking a refit that removes most of the error).
-const HELD_OUT_FIRST_SEED: u64 = 970_000;
+/// far too low, which led to the loop taking a refit that removes most of the error); from
+/// 970000 (run once, with that refit, backward elimination and the amplitude rule for play and
+/// friction: singles 16/21, saturation and coupling 6/6, pairs 6/12, clean 10/10, outside 5/8,
+/// closed 40/52, false effect 10/52; then examined: 970010 and 970020, to check that the
+/// amplitude rule had not blocked their play and friction: it had not).
+const HELD_OUT_FIRST_SEED: u64 = 980_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
