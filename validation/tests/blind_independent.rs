@@ -45,7 +45,9 @@ use zmp_validation::par::parallel_map;
 /// 970000 (run once, with that refit, backward elimination and the amplitude rule for play and
 /// friction: singles 16/21, saturation and coupling 6/6, pairs 6/12, clean 10/10, outside 5/8,
 /// closed 40/52, false effect 10/52; then examined: 970010 and 970020, to check that the
-/// amplitude rule had not blocked their play and friction: it had not).
+/// amplitude rule had not blocked their play and friction: it had not; 970010's play removed
+/// more than half the excess error but 6 % of the excess chi-square, which led to the error
+/// fraction in the search's test).
 const HELD_OUT_FIRST_SEED: u64 = 980_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;

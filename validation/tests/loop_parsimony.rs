@@ -8,6 +8,13 @@
 //!   for a misfit of the 8 mm sines, though the 3 mm and 8 mm sines respond alike; play and
 //!   friction are now named only when the small sines respond less or later beyond the noise
 //!   (`evidence::amplitude_dependence`).
+//!
+//! And one where it named too little: seed 970010 of the spent held-out range, play alone on
+//! a saturating robot. The play took the held-out error from 1.6x to 1.3x the noise floor
+//! (more than half the excess error) but removed only 6 % of the excess chi-square, which the
+//! few lowest-noise records dominate with a misfit of something else; the search's test
+//! asked for 10 % and the loop ended at 2.7x with nothing found. The test now also takes half
+//! of the excess error (`select::MIN_ERROR_FRACTION`).
 
 #[path = "support/indep_loop.rs"]
 mod indep_loop;
@@ -50,4 +57,21 @@ fn play_is_not_named_when_small_and_large_sines_respond_alike() {
         "backlash never tried"
     );
     assert!(r.explained, "final {:.2}x", r.final_error / r.noise_floor);
+}
+
+#[test]
+fn an_effect_that_removes_most_of_the_error_is_taken_though_the_chi_square_is_elsewhere() {
+    let r = loop_on(970_010, "single:backlash");
+    assert_eq!(
+        r.found.first().map(String::as_str),
+        Some("backlash"),
+        "found {:?}",
+        r.found
+    );
+    assert!(
+        r.final_error <= 1.5 * r.noise_floor,
+        "final {:.2}x",
+        r.final_error / r.noise_floor
+    );
+    assert!(r.identified_error > 2.0 * r.noise_floor);
 }

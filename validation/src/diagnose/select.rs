@@ -21,7 +21,7 @@
 use super::candidates::CATALOGUE;
 use super::engine::{addable, score_candidate, score_candidates, Scored};
 use super::evidence::amplitude_dependence;
-use super::measure::{predict, COMPONENTS};
+use super::measure::{aggregate, predict, COMPONENTS};
 use super::observe::Observation;
 use zmp_models::ModelSpec;
 
@@ -32,6 +32,9 @@ pub const CHI2_MIN: f64 = 30.0;
 pub const MIN_TOTAL_FRACTION: f64 = 0.1;
 /// Fraction of it in the records where the two structures differ that counts.
 pub const MIN_LOCAL_FRACTION: f64 = 0.5;
+/// Fraction of the parent's excess held-out error (the scale-free measure, every record
+/// alike) that counts.
+pub const MIN_ERROR_FRACTION: f64 = 0.5;
 /// Effects added at most.
 pub const MAX_EFFECTS: usize = 4;
 /// Single candidates combined into pairs when none passes alone.
@@ -49,6 +52,8 @@ pub struct Gain {
     /// in the acting records.
     pub total_fraction: f64,
     pub local_fraction: f64,
+    /// Fraction of the parent's excess squared held-out error over its noise floor removed.
+    pub error_fraction: f64,
     /// Whether the held-out error measure (what the user reads) falls too: a structure that
     /// trades a better chi-square on the quiet records for a worse fit of the others is not
     /// an explanation.
@@ -60,7 +65,8 @@ impl Gain {
         self.delta_chi2 >= CHI2_MIN
             && self.error_falls
             && (self.total_fraction >= MIN_TOTAL_FRACTION
-                || self.local_fraction >= MIN_LOCAL_FRACTION)
+                || self.local_fraction >= MIN_LOCAL_FRACTION
+                || self.error_fraction >= MIN_ERROR_FRACTION)
     }
 }
 
@@ -82,7 +88,14 @@ pub fn gain(parent: &Scored, child: &Scored) -> Gain {
         .iter()
         .map(|&k| parent.chi2s[k] - child.chi2s[k])
         .sum();
+    let floor2 = aggregate(&parent.scores).1.powi(2);
+    let excess_error2 = parent.error * parent.error - floor2;
     Gain {
+        error_fraction: if excess_error2 > 0.0 {
+            (parent.error * parent.error - child.error * child.error) / excess_error2
+        } else {
+            0.0
+        },
         delta_chi2,
         total_fraction: if total_excess > 0.0 {
             delta_chi2 / total_excess
