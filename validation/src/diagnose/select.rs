@@ -7,7 +7,8 @@
 //! at least [`MIN_TOTAL_FRACTION`] of the parent's excess chi-square over the campaign, or at
 //! least [`MIN_LOCAL_FRACTION`] of it in the records where the two differ beyond their noise
 //! (an effect that acts on a few records, like saturation on the fastest and largest ones, is
-//! judged where it acts).
+//! judged where it acts), or at least [`MIN_ERROR_FRACTION`] of the parent's excess held-out
+//! error (every record alike, where a few low-noise records dominate the chi-square).
 //!
 //! **The search.** Forward: every catalogued effect that can be added is fitted on top of the
 //! current structure (refitting everything) and tested against it; the best significant one
