@@ -156,24 +156,26 @@ impl AmplitudeDependence {
     }
 }
 
-/// The [`AmplitudeDependence`] of the measurements against `base`; `None` when the campaign
-/// has no pair of records that differ only in amplitude.
+/// The [`AmplitudeDependence`] of the measurements against `base`, per excited axis (play
+/// and friction can sit in one joint: the other axis's pairs would dilute its contrast);
+/// `None` for an axis without a pair of records that differ only in amplitude.
 pub fn amplitude_dependence(
     obs: &[&Observation],
     base: &[Prediction],
-) -> Option<AmplitudeDependence> {
+) -> [Option<AmplitudeDependence>; 2] {
     let r = ratios(obs, base);
     let amps: Vec<f64> = obs.iter().map(|o| o.nominal_amplitude).collect();
     let lo = amps.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = amps.iter().copied().fold(0.0, f64::max);
     if hi <= lo * 1.01 {
-        return None;
+        return [None, None];
     }
     let rel_var = |o: &Observation| {
         let j = o.excited.index();
         o.y1_var[j] / o.y1[j].norm_sqr().max(1e-300)
     };
-    let (mut sw, mut sg, mut sp, mut n) = (0.0, 0.0, 0.0, 0);
+    // Per axis: sum of weights, weighted log-gain, weighted lag, pairs.
+    let mut acc = [(0.0, 0.0, 0.0, 0usize); 2];
     for &(k, rk) in &r {
         let o = obs[k];
         if (o.nominal_amplitude - lo).abs() > 1e-12 {
@@ -193,17 +195,26 @@ pub fn amplitude_dependence(
         if !(var > 0.0 && q.re.is_finite() && q.im.is_finite()) {
             continue;
         }
-        sw += 1.0 / var;
-        sg += q.re / var;
-        sp += -q.im / var;
-        n += 1;
+        let a = &mut acc[o.excited.index()];
+        a.0 += 1.0 / var;
+        a.1 += q.re / var;
+        a.2 += -q.im / var;
+        a.3 += 1;
     }
-    (n > 0).then(|| AmplitudeDependence {
-        pairs: n,
-        log_gain: sg / sw,
-        lag: sp / sw,
-        std_error: sw.sqrt().recip(),
+    acc.map(|(sw, sg, sp, n)| {
+        (n > 0).then(|| AmplitudeDependence {
+            pairs: n,
+            log_gain: sg / sw,
+            lag: sp / sw,
+            std_error: sw.sqrt().recip(),
+        })
     })
+}
+
+/// Whether any axis shows an amplitude dependence (`None` when no axis can: no pairs).
+pub fn amplitude_dependence_shown(d: &[Option<AmplitudeDependence>; 2]) -> Option<bool> {
+    let known: Vec<&AmplitudeDependence> = d.iter().flatten().collect();
+    (!known.is_empty()).then(|| known.iter().any(|a| a.shown()))
 }
 
 fn axes_of(params: &BTreeMap<String, (f64, f64)>) -> String {
@@ -391,19 +402,34 @@ pub fn sentence(
             } else {
                 "Coulomb friction decelerating the CoM"
             };
-            match (amplitude_contrast(obs, &r), amplitude_dependence(obs, base)) {
-                (Some((g, p, low)), Some(d)) => {
-                    let words = if d.shown() {
+            let dep = amplitude_dependence(obs, base);
+            match (
+                amplitude_contrast(obs, &r),
+                amplitude_dependence_shown(&dep),
+            ) {
+                (Some((g, p, low)), Some(shown)) => {
+                    let words = if shown {
                         format!("the response depends on amplitude, as with {what}")
                     } else {
+                        let per_axis: Vec<String> = dep
+                            .iter()
+                            .zip(["x", "y"])
+                            .filter_map(|(d, ax)| {
+                                d.map(|d| {
+                                    format!(
+                                        "{ax}: gain {:+.2} %, lag {:+.2} deg, +- {:.2} % / {:.2} deg",
+                                        100.0 * d.log_gain,
+                                        d.lag.to_degrees(),
+                                        100.0 * d.std_error,
+                                        d.std_error.to_degrees()
+                                    )
+                                })
+                            })
+                            .collect();
                         format!(
                             "within the noise the response does not depend on amplitude as \
-                             with {what} (weighted by the records' noise: gain {:+.2} %, lag \
-                             {:+.2} deg, +- {:.2} % / {:.2} deg)",
-                            100.0 * d.log_gain,
-                            d.lag.to_degrees(),
-                            100.0 * d.std_error,
-                            d.std_error.to_degrees()
+                             with {what} (weighted by the records' noise, {})",
+                            per_axis.join("; ")
                         )
                     };
                     let _ = write!(
@@ -656,7 +682,7 @@ mod tests {
                 v.push(rec(w, 0.008, Complex64::new(1.0, 0.0), rel_sd * rel_sd));
             }
             let refs: Vec<&Observation> = v.iter().collect();
-            amplitude_dependence(&refs, &vec![pred; refs.len()])
+            amplitude_dependence(&refs, &vec![pred; refs.len()])[0]
         };
         // A play: the 3 mm sines 2 % smaller and 1 degree later, 0.1 % noise per record.
         let play = Complex64::from_polar(0.98, -1f64.to_radians());
@@ -677,11 +703,39 @@ mod tests {
         // Small sines responding more and earlier: not what play or friction do.
         let opposite = Complex64::from_polar(1.02, 1f64.to_radians());
         assert!(!campaign(opposite, 1e-3).unwrap().shown());
+        // Play in the y joint only, and x pairs with a hundredth of its noise and no
+        // contrast: pooled, the x pairs would bury it; per axis it shows.
+        let mut v = Vec::new();
+        for w in [0.5, 1.0, 2.0, 4.0, 8.0] {
+            for (amp, g) in [(0.003, play), (0.008, Complex64::new(1.0, 0.0))] {
+                let mut y = rec(w, amp, g, 1e-6);
+                y.excited = zmp_models::Axis::Y;
+                y.y1 = [Complex64::new(0.0, 0.0), g * amp];
+                y.y1_var = [1e-12, 1e-6 * amp * amp];
+                v.push(y);
+                v.push(rec(w, amp, Complex64::new(1.0, 0.0), 1e-10));
+            }
+        }
+        let refs: Vec<&Observation> = v.iter().collect();
+        let preds: Vec<Prediction> = refs
+            .iter()
+            .map(|o| Prediction {
+                g: if o.excited == zmp_models::Axis::Y {
+                    [Complex64::new(0.0, 0.0), Complex64::new(1.0, 0.0)]
+                } else {
+                    pred.g
+                },
+                slope: [0.0; 2],
+            })
+            .collect();
+        let d = amplitude_dependence(&refs, &preds);
+        assert!(!d[0].unwrap().shown() && d[1].unwrap().shown(), "{d:?}");
+        assert_eq!(amplitude_dependence_shown(&d), Some(true));
         // One amplitude only: nothing to compare.
         let one: Vec<Observation> = (0..3)
             .map(|k| rec(1.0 + k as f64, 0.003, play, 1e-6))
             .collect();
         let refs: Vec<&Observation> = one.iter().collect();
-        assert!(amplitude_dependence(&refs, &[pred; 3]).is_none());
+        assert_eq!(amplitude_dependence(&refs, &[pred; 3]), [None, None]);
     }
 }

@@ -21,7 +21,7 @@
 
 use super::candidates::CATALOGUE;
 use super::engine::{addable, score_candidate, score_candidates, Scored};
-use super::evidence::amplitude_dependence;
+use super::evidence::{amplitude_dependence, amplitude_dependence_shown};
 use super::measure::{aggregate, predict, COMPONENTS};
 use super::observe::Observation;
 use zmp_models::ModelSpec;
@@ -174,8 +174,8 @@ fn plausible(children: Vec<Scored>, parent: &Scored, obs: &[&Observation]) -> Ve
     }
     let shown = predict(&parent.fitted.spec, obs)
         .ok()
-        .and_then(|p| amplitude_dependence(obs, &p))
-        .is_none_or(|d| d.shown());
+        .and_then(|p| amplitude_dependence_shown(&amplitude_dependence(obs, &p)))
+        .unwrap_or(true);
     children
         .into_iter()
         .filter(|c| shown || !amplitude_law(&c.effect))
