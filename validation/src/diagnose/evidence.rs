@@ -79,38 +79,53 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// Mean gain of the smallest amplitude over the largest, for records that differ only in
-/// amplitude, and the mean extra phase lag (deg); `None` without such pairs.
-fn amplitude_contrast(obs: &[&Observation], r: &[(usize, Complex64)]) -> Option<(f64, f64, f64)> {
+/// Pairs of records that differ only in amplitude (the campaign's smallest and largest, same
+/// axis, frequency and operating point): `(small, its ratio, large, its ratio)` from the
+/// measured-over-model ratios `r`; empty when the campaign has one amplitude.
+fn amplitude_pairs(
+    obs: &[&Observation],
+    r: &[(usize, Complex64)],
+) -> Vec<(usize, Complex64, usize, Complex64)> {
     let amps: Vec<f64> = obs.iter().map(|o| o.nominal_amplitude).collect();
     let lo = amps.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = amps.iter().copied().fold(0.0, f64::max);
     if hi <= lo * 1.01 {
-        return None;
+        return Vec::new();
     }
-    let mut gains = Vec::new();
-    let mut phases = Vec::new();
-    let mut low_w = Vec::new();
+    let mut out = Vec::new();
     for &(k, rk) in r {
         let o = obs[k];
         if (o.nominal_amplitude - lo).abs() > 1e-12 {
             continue;
         }
-        if let Some(&(_, rh)) = r.iter().find(|(m, _)| {
+        if let Some(&(m, rh)) = r.iter().find(|(m, _)| {
             let p = obs[*m];
             p.excited == o.excited
                 && (p.omega - o.omega).abs() <= 1e-9 * o.omega
                 && p.operating_point == o.operating_point
                 && (p.nominal_amplitude - hi).abs() <= 1e-12
         }) {
-            let q = rk / rh;
-            gains.push(q.norm());
-            phases.push(q.arg().to_degrees());
-            low_w.push((o.omega, q.norm()));
+            out.push((k, rk, m, rh));
         }
     }
-    if gains.is_empty() {
+    out
+}
+
+/// Mean gain of the smallest amplitude over the largest, for records that differ only in
+/// amplitude, and the mean extra phase lag (deg); `None` without such pairs.
+fn amplitude_contrast(obs: &[&Observation], r: &[(usize, Complex64)]) -> Option<(f64, f64, f64)> {
+    let pairs = amplitude_pairs(obs, r);
+    if pairs.is_empty() {
         return None;
+    }
+    let mut gains = Vec::new();
+    let mut phases = Vec::new();
+    let mut low_w = Vec::new();
+    for &(k, rk, _, rh) in &pairs {
+        let q = rk / rh;
+        gains.push(q.norm());
+        phases.push(q.arg().to_degrees());
+        low_w.push((obs[k].omega, q.norm()));
     }
     low_w.sort_by(|a, b| a.0.total_cmp(&b.0));
     let n = gains.len() as f64;
@@ -163,39 +178,19 @@ pub fn amplitude_dependence(
     obs: &[&Observation],
     base: &[Prediction],
 ) -> [Option<AmplitudeDependence>; 2] {
-    let r = ratios(obs, base);
-    let amps: Vec<f64> = obs.iter().map(|o| o.nominal_amplitude).collect();
-    let lo = amps.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = amps.iter().copied().fold(0.0, f64::max);
-    if hi <= lo * 1.01 {
-        return [None, None];
-    }
     let rel_var = |o: &Observation| {
         let j = o.excited.index();
         o.y1_var[j] / o.y1[j].norm_sqr().max(1e-300)
     };
     // Per axis: sum of weights, weighted log-gain, weighted lag, pairs.
     let mut acc = [(0.0, 0.0, 0.0, 0usize); 2];
-    for &(k, rk) in &r {
-        let o = obs[k];
-        if (o.nominal_amplitude - lo).abs() > 1e-12 {
-            continue;
-        }
-        let Some(&(m, rh)) = r.iter().find(|(m, _)| {
-            let p = obs[*m];
-            p.excited == o.excited
-                && (p.omega - o.omega).abs() <= 1e-9 * o.omega
-                && p.operating_point == o.operating_point
-                && (p.nominal_amplitude - hi).abs() <= 1e-12
-        }) else {
-            continue;
-        };
+    for (k, rk, m, rh) in amplitude_pairs(obs, &ratios(obs, base)) {
         let q = (rk / rh).ln();
-        let var = rel_var(o) + rel_var(obs[m]);
+        let var = rel_var(obs[k]) + rel_var(obs[m]);
         if !(var > 0.0 && q.re.is_finite() && q.im.is_finite()) {
             continue;
         }
-        let a = &mut acc[o.excited.index()];
+        let a = &mut acc[obs[k].excited.index()];
         a.0 += 1.0 / var;
         a.1 += q.re / var;
         a.2 += -q.im / var;
