@@ -377,6 +377,79 @@ fn acceleration_saturation_compresses_gain_and_adds_odd_harmonics() {
     );
 }
 
+/// `passive_damping = c`: the servo's force `x_c'' + c x_c'` is what the limit clamps, and the
+/// damping `c x_c'` keeps braking while the force is at the limit. Below the limit the plant is
+/// the linear one; past it, the damping outside the clamp compresses the gain further than the
+/// clamp alone (the independent robot's load drag); the describing response and the plant's
+/// own simulation agree.
+#[test]
+fn acceleration_saturation_passive_damping_acts_beyond_the_limit() {
+    let (limit, c) = (1.0, 20.0);
+    let with = |c: f64| {
+        plant(&format!(
+            "[acceleration_saturation]\nlimit = {limit}\npassive_damping = {c}\n"
+        ))
+    };
+    let (omega, per) = whole_period(8.0);
+    let h_servo = plant("").tracking_lowpass(Axis::X).tf().freq(omega).norm();
+    let force_gain = Complex64::new(-omega * omega, omega * c).norm() * h_servo;
+    // The time law, deep in saturation: |x'' + c x'| <= limit at every step (velocity by a
+    // central difference), and it reaches the limit. With the seed's law (c = 0) the
+    // acceleration itself would reach the limit while the trunk moves the same way.
+    let amp = 3.0 * limit / force_gain;
+    let mut p = with(c);
+    let (out, _) = record_periodic(&mut p, Axis::X, omega, amp, |o| o.zmp[0]);
+    let mut peak: f64 = 0.0;
+    for k in 1..out.len() - 1 {
+        let v = (out[k + 1].com[0] - out[k - 1].com[0]) / (2.0 * H);
+        let force = out[k].com_acceleration[0] + c * v;
+        assert!(
+            force.abs() <= limit * (1.0 + 1e-2),
+            "step {k}: force {force} beyond the limit {limit} (acceleration {}, velocity {v})",
+            out[k].com_acceleration[0]
+        );
+        peak = peak.max(force.abs());
+    }
+    assert!(
+        peak >= 0.99 * limit,
+        "the force never reached the limit: {peak}"
+    );
+    assert_eq!(per, (2.0 * PI / (omega * H)).round() as usize);
+    // Below the limit: the linear plant, whatever c.
+    let low = 0.5 * limit / force_gain;
+    let lin = with(0.0).simulated_response(Axis::X, omega, low)[0];
+    let damped = with(c).simulated_response(Axis::X, omega, low)[0];
+    assert_close(damped, lin, 1e-9, 1e-7, "below the limit");
+    assert_close(
+        plant("").frequency_response(omega)[0][0],
+        lin,
+        2e-4,
+        0.01,
+        "linear plant",
+    );
+    // Beyond it: more compression than the clamp alone, and the describing response holds.
+    for demand in [1.5, 3.0] {
+        let amp = demand * limit / force_gain;
+        let clamp_only = with(0.0).simulated_response(Axis::X, omega, amp)[0];
+        let mut p = with(c);
+        let sim = p.simulated_response(Axis::X, omega, amp)[0];
+        assert!(
+            sim.norm() < 0.97 * clamp_only.norm(),
+            "{demand}x: gain {} with the passive damping, {} without",
+            sim.norm(),
+            clamp_only.norm()
+        );
+        let df = p.describing_response(G11, omega, amp);
+        assert_close(
+            df,
+            sim,
+            1e-3,
+            0.05,
+            &format!("describing_response, {demand}x"),
+        );
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // coulomb_friction
 

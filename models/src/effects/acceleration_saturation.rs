@@ -1,23 +1,41 @@
 //! Acceleration saturation of the servo (first seed, sections 4 and 6.3): the CoM cannot
 //! accelerate faster than `limit`. At high frequency or amplitude this compresses the gain and
 //! adds odd harmonics.
+//!
+//! The limit is the servo's force limit. Part of the tracking damping `2 zeta omega_n` may be
+//! the mechanism's own viscous friction (a joint's bearing, a gear's oil, the drag of a load),
+//! which keeps acting when the motor's force is at its limit: with `passive_damping = c`
+//! (1/s) the servo's force is `demand + c v` clamped to `+-limit`, and the CoM acceleration
+//! that force minus `c v`. In the linear range nothing changes (the total damping is the
+//! tracking low-pass's); once the limit acts, a damping outside it brakes the fast, large
+//! sines further than the clamp alone (`c = 0`, the seed's law).
 
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
 use crate::effects::servo::servo_describing_function;
 use num_complex::Complex64;
 
-pub static PARAMS: [ParamSpec; 1] = [ParamSpec::required(
-    "limit",
-    "m/s2",
-    1e-3,
-    1e3,
-    "largest CoM acceleration the servo achieves",
-)];
+pub static PARAMS: [ParamSpec; 2] = [
+    ParamSpec::required(
+        "limit",
+        "m/s2",
+        1e-3,
+        1e3,
+        "largest CoM acceleration the servo's force achieves",
+    ),
+    ParamSpec::optional(
+        "passive_damping",
+        "1/s",
+        0.0,
+        200.0,
+        0.0,
+        "viscous damping of the mechanism that acts beyond the force limit (part of 2 zeta wn)",
+    ),
+];
 
 pub static INFO: EffectInfo = EffectInfo {
     kind: "acceleration_saturation",
     title: "acceleration saturation",
-    doc: "The servo's CoM acceleration is clamped to +-limit.",
+    doc: "The servo's force (over the moved mass) is clamped to +-limit; passive_damping acts beyond it.",
     site: Site::Servo,
     core: false,
     linear: false,
@@ -29,6 +47,8 @@ pub static INFO: EffectInfo = EffectInfo {
 #[derive(Debug, Clone)]
 pub struct AccelerationSaturation {
     pub limit: f64,
+    /// Viscous damping outside the limit, 1/s.
+    pub passive_damping: f64,
     servo: (f64, f64),
     h: f64,
 }
@@ -38,11 +58,12 @@ impl Effect for AccelerationSaturation {
         &INFO
     }
     fn frequency_response(&self, omega: f64, amplitude: f64) -> Complex64 {
-        // The linear servo's steady acceleration is -w^2 H(jw) times the reference: while its
-        // amplitude stays below the limit the periodic state is the linear one.
+        // The linear servo's steady force is (-w^2 + j w c) H(jw) times the reference: while
+        // its amplitude stays below the limit the periodic state is the linear one.
         let (wn, zeta) = self.servo;
         let h = wn * wn / Complex64::new(wn * wn - omega * omega, 2.0 * zeta * wn * omega);
-        if omega * omega * h.norm() * amplitude <= 0.999 * self.limit {
+        let force = Complex64::new(-omega * omega, omega * self.passive_damping);
+        if force.norm() * h.norm() * amplitude <= 0.999 * self.limit {
             return Complex64::new(1.0, 0.0);
         }
         let mut limits: [Box<dyn Effect>; 1] = [Box::new(self.clone())];
@@ -51,7 +72,7 @@ impl Effect for AccelerationSaturation {
             self.servo.1,
             self.h,
             &mut limits,
-            [2.0, self.limit, 0.0],
+            [2.0, self.limit, self.passive_damping],
             omega,
             amplitude,
         )
@@ -60,14 +81,16 @@ impl Effect for AccelerationSaturation {
         u
     }
     #[inline]
-    fn servo_acceleration(&mut self, demand: f64, _velocity: f64) -> f64 {
-        demand.clamp(-self.limit, self.limit)
+    fn servo_acceleration(&mut self, demand: f64, velocity: f64) -> f64 {
+        let c = self.passive_damping * velocity;
+        (demand + c).clamp(-self.limit, self.limit) - c
     }
 }
 
 fn build(ctx: &BuildContext, v: &[f64]) -> Box<dyn Effect> {
     Box::new(AccelerationSaturation {
         limit: v[0],
+        passive_damping: v.get(1).copied().unwrap_or(0.0),
         servo: ctx.servo.unwrap_or((30.0, 1.0)),
         h: ctx.h,
     })
