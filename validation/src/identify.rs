@@ -1569,10 +1569,20 @@ fn build_model(
     if let (Some(l), true) = (ident.saturation.limit, wants_limit) {
         let sat = zmp_models::lookup("acceleration_saturation").expect("registered");
         for axis in Axis::BOTH {
+            // The limit is identified; a start model's other saturation parameters (its
+            // passive damping) are kept, as its other effects are.
+            let mut values = vec![l.clamp(1e-3, 1e3)];
+            if let Some(start) = opts.start_model.as_ref().and_then(|m| {
+                m.effects.iter().find(|e| {
+                    e.info.kind == "acceleration_saturation" && e.binding == Binding::Axis(axis)
+                })
+            }) {
+                values.extend(start.values.iter().skip(1));
+            }
             spec.insert(EffectInstance {
                 info: sat,
                 binding: Binding::Axis(axis),
-                values: vec![l.clamp(1e-3, 1e3)],
+                values,
             });
         }
         if let Some(se) = ident.saturation.limit_stderr {

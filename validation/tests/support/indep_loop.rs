@@ -8,7 +8,14 @@ use zmp_validation::diagnose::DiagnoseOptions;
 use zmp_validation::identify::IdentifyOptions;
 
 /// The loop on draw `seed` of `scenario` from the independent simulator.
+#[allow(dead_code)] // not every test that includes this module uses both entry points
 pub fn loop_on(seed: u64, scenario: &str) -> LoopResult {
+    loop_from(seed, scenario, None)
+}
+
+/// [`loop_on`] from a start model whose structure the identification refits (`--model`).
+#[allow(dead_code)]
+pub fn loop_from(seed: u64, scenario: &str, start: Option<zmp_models::ModelSpec>) -> LoopResult {
     let design = Design::default();
     let dir = tempfile::tempdir().unwrap();
     let scenario: Scenario = scenario.parse().unwrap();
@@ -29,5 +36,5 @@ pub fn loop_on(seed: u64, scenario: &str) -> LoopResult {
         threads: 2,
         ..DiagnoseOptions::default()
     };
-    run_loop(&camp, None, &IdentifyOptions::default(), &opts, &|_| {}).unwrap()
+    run_loop(&camp, start, &IdentifyOptions::default(), &opts, &|_| {}).unwrap()
 }

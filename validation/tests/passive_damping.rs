@@ -1,0 +1,126 @@
+//! The saturation's passive damping (`acceleration_saturation.passive_damping`) on data this
+//! project did not make: a draw of the independent simulator (`zmp-indep-sim`, no physics
+//! code shared with `zmp-models`) whose backlash sits in a compliant transmission with a
+//! dragging load. The drag acts on the load whatever the motor's force; the servo's force
+//! limit does not bound it. Below the limit it is part of the servo's damping; at the fast,
+//! large sines, where the force is clamped, it brakes further, and the seed's clamp alone
+//! (`passive_damping = 0`) cannot follow those records.
+//!
+//! The diagnosis does not search the parameter (free in every refit it also explains a
+//! rate-limited servo, outside the catalogue: README, "Effects"); a model that has one gets it
+//! refitted with everything else. Here the user's start model has one.
+
+#[path = "support/indep_loop.rs"]
+mod indep_loop;
+#[path = "support/readme.rs"]
+mod readme;
+
+use indep_loop::{loop_from, loop_on};
+use readme::readme_section;
+use zmp_indep_sim::{draw_with, CouplingForm, Design, DrawOptions};
+use zmp_models::{Axis, Binding, ModelSpec};
+
+/// Development seed 11, a single backlash: a play of 0.3 mm in 3 and 8 mm sines; the
+/// blind suite's loop ends there unexplained at 2.1x the noise floor.
+const SEED: u64 = 11;
+const SCENARIO: &str = "single:backlash";
+
+/// The drawn robot's drag as the CoM deceleration per unit speed, 1/s: the joint's viscous
+/// drag `m_J / tau` over the axis's unit inertia (no flexible links: `m_J` is the load,
+/// `1 - drive share`).
+fn true_drag() -> [f64; 2] {
+    let robot = draw_with(
+        SEED,
+        &SCENARIO.parse().unwrap(),
+        &Design::default(),
+        &DrawOptions {
+            coupling_form: Some(CouplingForm::Pendulum),
+        },
+    );
+    [0, 1].map(|k| {
+        let a = &robot.axes[k];
+        assert!(a.modes.is_empty(), "the truth below assumes a rigid trunk");
+        let t = a
+            .transmission
+            .as_ref()
+            .expect("a backlash draw has a transmission");
+        (1.0 - a.drive_mass_fraction) / t.load_drag_time.expect("the load drags")
+    })
+}
+
+#[test]
+fn a_passive_damping_in_the_model_is_refitted_to_the_load_drag_and_closes_the_gap() {
+    let truth = true_drag();
+    let plain = loop_on(SEED, SCENARIO);
+    let plain_ratio = plain.final_error / plain.noise_floor;
+
+    // The seed's structure with a saturation on each axis that has a passive damping (its
+    // values are starting points: the diagnosis refits them).
+    let text = format!(
+        "{}\n[acceleration_saturation.x]\nlimit = 1.0\npassive_damping = 1.0\n\
+         [acceleration_saturation.y]\nlimit = 1.0\npassive_damping = 1.0\n",
+        include_str!("../../models/params/silo2-paper.toml")
+    );
+    let start = ModelSpec::parse(&text, "start.toml").unwrap();
+    let damped = loop_from(SEED, SCENARIO, Some(start));
+    let ratio = damped.final_error / damped.noise_floor;
+    let fitted = [Axis::X, Axis::Y].map(|a| {
+        damped
+            .final_model
+            .value(
+                "acceleration_saturation",
+                Binding::Axis(a),
+                "passive_damping",
+            )
+            .expect("the final model keeps the saturation")
+    });
+    let names = |f: &[String]| {
+        if f.is_empty() {
+            "nothing".to_string()
+        } else {
+            f.join(", ")
+        }
+    };
+    let summary = format!(
+        "Development seed {SEED} ({SCENARIO}): from the seed's structure the loop adds {} and \
+         ends at {plain_ratio:.2}x the noise floor ({}); from a start model whose saturations \
+         have a passive damping of 1/s it adds {} and ends at {ratio:.2}x ({}), the passive \
+         damping refitted to x {:.1}/s and y {:.1}/s against the drawn robot's load drag of \
+         {:.1}/s and {:.1}/s.\n",
+        names(&plain.found),
+        if plain.explained {
+            "explained"
+        } else {
+            "unexplained"
+        },
+        names(&damped.found),
+        if damped.explained {
+            "explained"
+        } else {
+            "unexplained"
+        },
+        fitted[0],
+        fitted[1],
+        truth[0],
+        truth[1],
+    );
+    eprint!("{summary}");
+    assert!(
+        damped.explained && ratio <= 1.2,
+        "with the passive damping the loop should explain the draw: {ratio:.2}x the floor"
+    );
+    assert!(
+        ratio <= 0.7 * plain_ratio,
+        "the passive damping should remove the misfit of the clamped records: \
+         {plain_ratio:.2}x -> {ratio:.2}x"
+    );
+    for k in 0..2 {
+        assert!(
+            (fitted[k] / truth[k] - 1.0).abs() <= 0.35,
+            "axis {k}: passive damping {:.2} 1/s against the robot's drag {:.2} 1/s",
+            fitted[k],
+            truth[k]
+        );
+    }
+    readme_section("passive-damping", &summary);
+}
