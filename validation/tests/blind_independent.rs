@@ -47,8 +47,13 @@ use zmp_validation::par::parallel_map;
 /// closed 40/52, false effect 10/52; then examined: 970010 and 970020, to check that the
 /// amplitude rule had not blocked their play and friction: it had not; 970010's play removed
 /// more than half the excess error but 6 % of the excess chi-square, which led to the error
-/// fraction in the search's test).
-const HELD_OUT_FIRST_SEED: u64 = 980_000;
+/// fraction in the search's test); from 980000 (run once on the code of 7646e21, that error
+/// fraction and the per-axis amplitude rule in: singles 17/21, saturation and coupling 6/6,
+/// pairs 7/12, clean 10/10, outside 4/8, closed 41/52, false effect 14/52; then examined:
+/// 980001, the lone play the loop did not find, to check the passive damping found on
+/// development seed 11: from a start model with one it names the play,
+/// `tests/passive_damping.rs`).
+const HELD_OUT_FIRST_SEED: u64 = 990_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
