@@ -125,7 +125,18 @@ pub fn structure_frees(spec: &ModelSpec) -> Vec<Free> {
             if p.name == "passive_damping" && v == 0.0 {
                 continue;
             }
-            let (min, max) = (p.min, p.max);
+            let (min, mut max) = (p.min, p.max);
+            if p.name == "passive_damping" {
+                // Part of the tracking damping 2 zeta omega_n: beyond it the servo's own
+                // damping would be negative.
+                let (wn, zeta) = (
+                    spec.value("tracking_lowpass", e.binding, "omega_n"),
+                    spec.value("tracking_lowpass", e.binding, "zeta"),
+                );
+                if let (Some(wn), Some(zeta)) = (wn, zeta) {
+                    max = max.min(2.0 * zeta * wn);
+                }
+            }
             if !(min.is_finite() && max.is_finite()) || max <= min {
                 continue;
             }
