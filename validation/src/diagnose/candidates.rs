@@ -262,11 +262,15 @@ fn per_axis(
 }
 
 fn servo_params(spec: &ModelSpec) -> (f64, f64) {
+    servo_params_of(spec, AXES[0])
+}
+
+/// The tracking low-pass `(omega_n, zeta)` of the input axis `b` (the seed's 30 rad/s and 1
+/// where the model has none).
+pub fn servo_params_of(spec: &ModelSpec, b: Binding) -> (f64, f64) {
     (
-        spec.value("tracking_lowpass", AXES[0], "omega_n")
-            .unwrap_or(30.0),
-        spec.value("tracking_lowpass", AXES[0], "zeta")
-            .unwrap_or(1.0),
+        spec.value("tracking_lowpass", b, "omega_n").unwrap_or(30.0),
+        spec.value("tracking_lowpass", b, "zeta").unwrap_or(1.0),
     )
 }
 

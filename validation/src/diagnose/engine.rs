@@ -16,8 +16,8 @@
 //! others. Each fold's fit (started from the all-records fit) predicts the other fold.
 
 use super::candidates::{
-    apply, core_frees, mode_free_axes, model_kinds, plausible, Candidate, DataRange, Free, Start,
-    CATALOGUE,
+    apply, core_frees, mode_free_axes, model_kinds, plausible, servo_params_of, Candidate,
+    DataRange, Free, Start, CATALOGUE,
 };
 use super::lm::{minimise, Bounded};
 use super::measure::{aggregate, chi2, predict, score, whitened, RecordScore, COMPONENTS};
@@ -121,21 +121,14 @@ pub fn structure_frees(spec: &ModelSpec) -> Vec<Free> {
             // in-catalogue draws (46/52) but left 2 of 8 outside-catalogue draws unexplained
             // instead of 7 (a force limit with a damping beyond it is a speed limit: it
             // explains a rate-limited servo, and Stribeck friction) and named 2 fewer single
-            // effects. One the model has is refitted.
-            if p.name == "passive_damping" && v == 0.0 {
-                continue;
-            }
+            // effects. One the model has is refitted, at most up to the tracking damping
+            // 2 zeta omega_n it is part of (beyond, the servo's own damping would be negative).
             let (min, mut max) = (p.min, p.max);
             if p.name == "passive_damping" {
-                // Part of the tracking damping 2 zeta omega_n: beyond it the servo's own
-                // damping would be negative.
-                let (wn, zeta) = (
-                    spec.value("tracking_lowpass", e.binding, "omega_n"),
-                    spec.value("tracking_lowpass", e.binding, "zeta"),
-                );
-                if let (Some(wn), Some(zeta)) = (wn, zeta) {
-                    max = max.min(2.0 * zeta * wn);
+                if v == 0.0 {
+                    continue;
                 }
+                max = max.min(tracking_damping(spec, e.binding));
             }
             if !(min.is_finite() && max.is_finite()) || max <= min {
                 continue;
@@ -481,21 +474,18 @@ fn damping_variants(spec: &ModelSpec) -> Vec<ModelSpec> {
     for share in [0.1, 0.3] {
         let mut s = spec.clone();
         for b in &bindings {
-            let (wn, zeta) = (
-                spec.value("tracking_lowpass", *b, "omega_n")
-                    .unwrap_or(30.0),
-                spec.value("tracking_lowpass", *b, "zeta").unwrap_or(1.0),
-            );
-            s.set_value(
-                "acceleration_saturation",
-                *b,
-                "passive_damping",
-                share * 2.0 * zeta * wn,
-            );
+            let c = share * tracking_damping(spec, *b);
+            s.set_value("acceleration_saturation", *b, "passive_damping", c);
         }
         out.push(s);
     }
     out
+}
+
+/// The tracking low-pass's damping `2 zeta omega_n` of input axis `b`, 1/s.
+fn tracking_damping(spec: &ModelSpec, b: Binding) -> f64 {
+    let (wn, zeta) = servo_params_of(spec, b);
+    2.0 * zeta * wn
 }
 
 /// Every parameter of `base`'s own structure refitted on `obs`: the core from each low-pass
@@ -505,11 +495,9 @@ pub fn refit_all(base: &ModelSpec, obs: &[&Observation]) -> Option<Fitted> {
     let best = damping_variants(base)
         .iter()
         .flat_map(bandwidth_variants)
-        .collect::<Vec<_>>()
-        .iter()
         .filter_map(|s| {
-            let frees = core_frees(s, true);
-            fit_from(s, &frees, 0, obs, ITERS_OWN)
+            let frees = core_frees(&s, true);
+            fit_from(&s, &frees, 0, obs, ITERS_OWN)
         })
         .min_by(|a, b| a.cost.total_cmp(&b.cost))?;
     let frees = refit_frees(&best.spec, &[]);
