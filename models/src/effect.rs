@@ -135,6 +135,9 @@ pub struct BuildContext {
     pub binding: Binding,
     /// The tracking low-pass of the bound input axis `(omega_n rad/s, zeta)`, for servo effects.
     pub servo: Option<(f64, f64)>,
+    /// The flexible trunk the bound axis's servo drives (inside its loop): the servo effects'
+    /// describing functions simulate the two-body loop.
+    pub link: Option<crate::effects::servo_link::TrunkLink>,
 }
 
 /// A cross-parameter check: `Err((index of the offending parameter, message))`.

@@ -18,6 +18,7 @@ use crate::axis::{Axis, Channel};
 use crate::effect::{Binding, BuildContext, Effect, Site};
 use crate::effects::pendulum::Pendulum;
 use crate::effects::servo::Servo;
+use crate::effects::servo_link::TrunkLink;
 use crate::effects::tracking_lowpass::TrackingLowpass;
 use crate::harmonic::steady_first_harmonics;
 use crate::model_file::{ModelError, ModelSpec};
@@ -50,6 +51,9 @@ pub struct Plant {
     command: [Chain; 2],
     servo: [Servo; 2],
     servo_limits: [Chain; 2],
+    /// A flexible trunk inside an axis's servo loop: the servo steps it, the chain only gives
+    /// its linear frequency response.
+    in_loop: [Chain; 2],
     lowpass: [TrackingLowpass; 2],
     pendulum: Pendulum,
     pendulum_mods: Chain,
@@ -116,14 +120,31 @@ impl Plant {
             }
         };
         let lowpass = [lp(Axis::X), lp(Axis::Y)];
+        // A flexible trunk is stepped inside its axis's servo loop (where a force limit or
+        // friction acts on the force that drives the joint against the link).
+        let link = Axis::BOTH.map(|a| {
+            let v = &spec.get("flexible_trunk", Binding::Axis(a))?.values;
+            let link = TrunkLink {
+                omega_m: v[0],
+                zeta_m: v[1],
+                share: v.get(2).copied().unwrap_or(0.5),
+                drive: v.get(3).copied().unwrap_or(0.0),
+            };
+            (link.share > 0.0).then_some(link)
+        });
+        let servo = |k: usize| {
+            let s = Servo::new(lowpass[k].omega_n, lowpass[k].zeta, h);
+            match link[k] {
+                Some(l) => s.with_link(l),
+                None => s,
+            }
+        };
         let mut plant = Plant {
             h,
             command: [Vec::new(), Vec::new()],
-            servo: [
-                Servo::new(lowpass[0].omega_n, lowpass[0].zeta, h),
-                Servo::new(lowpass[1].omega_n, lowpass[1].zeta, h),
-            ],
+            servo: [servo(0), servo(1)],
             servo_limits: [Vec::new(), Vec::new()],
+            in_loop: [Vec::new(), Vec::new()],
             lowpass,
             pendulum,
             pendulum_mods: Vec::new(),
@@ -158,13 +179,23 @@ impl Plant {
                 Binding::Axis(a) => Some((lowpass[a.index()].omega_n, lowpass[a.index()].zeta)),
                 _ => None,
             };
+            let in_loop = match inst.binding {
+                Binding::Axis(a) => link[a.index()],
+                _ => None,
+            };
             let ctx = BuildContext {
                 h,
                 binding: inst.binding,
                 servo,
+                link: in_loop,
             };
             let effect = inst.build(&ctx);
             match (inst.info.site, inst.binding) {
+                (Site::Command, Binding::Axis(a))
+                    if inst.info.kind == "flexible_trunk" && in_loop.is_some() =>
+                {
+                    plant.in_loop[a.index()].push(effect)
+                }
                 (Site::Command, Binding::Axis(a)) => plant.command[a.index()].push(effect),
                 (Site::Servo, Binding::Axis(a)) => plant.servo_limits[a.index()].push(effect),
                 (Site::Pendulum, _) => plant.pendulum_mods.push(effect),
@@ -385,10 +416,10 @@ impl Plant {
         let (i, j) = (ch.output.index(), ch.input.index());
         let mut g = Complex64::new(1.0, 0.0);
         let mut amp = amplitude.unwrap_or(0.0);
+        // The amplitude each nonlinear effect sees is the reference's after the command
+        // effects before it.
         for e in &self.command[j] {
-            if e.info().linear {
-                g *= e.frequency_response(omega, amp);
-            } else if amplitude.is_some() {
+            if e.info().linear || amplitude.is_some() {
                 let n = e.frequency_response(omega, amp);
                 g *= n;
                 amp *= n.norm();
@@ -398,6 +429,11 @@ impl Plant {
             for e in &self.servo_limits[j] {
                 g *= e.frequency_response(omega, amp);
             }
+        }
+        // The linked loop's linear response is the flexible trunk's filter times `H`; the
+        // servo effects' describing functions above are relative to it.
+        for e in &self.in_loop[j] {
+            g *= e.frequency_response(omega, amp);
         }
         g *= self.lowpass[j].tf().freq(omega);
         g *= Complex64::new(self.a_lin[i][j] + self.b[i][j] * omega * omega, 0.0);
@@ -446,6 +482,7 @@ impl Plant {
         let chains = self
             .command
             .iter()
+            .chain(self.in_loop.iter())
             .chain(self.sensor.iter())
             .chain(self.channel.iter().flatten());
         for chain in chains {

@@ -1204,6 +1204,7 @@ fn estimate_limit(
         h,
         binding: Binding::Axis(Axis::X),
         servo: Some((p[8], p[9])),
+        link: None,
     };
     let demand: Vec<f64> = sat
         .iter()
@@ -1689,6 +1690,7 @@ mod tests {
             h,
             binding: Binding::Axis(Axis::X),
             servo: Some((wn, zeta)),
+            link: None,
         };
         for (limit, w, a) in [(1.2, 6.0, 0.05), (0.8, 12.0, 0.02), (3.0, 2.0, 0.01)] {
             let e = (info.build)(&ctx, &[limit]);

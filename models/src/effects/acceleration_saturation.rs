@@ -12,6 +12,7 @@
 
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
 use crate::effects::servo::servo_describing_function;
+use crate::effects::servo_link::{joint_response, TrunkLink};
 use num_complex::Complex64;
 
 pub static PARAMS: [ParamSpec; 2] = [
@@ -50,6 +51,7 @@ pub struct AccelerationSaturation {
     /// Viscous damping outside the limit, 1/s.
     pub passive_damping: f64,
     servo: (f64, f64),
+    link: Option<TrunkLink>,
     h: f64,
 }
 
@@ -58,19 +60,21 @@ impl Effect for AccelerationSaturation {
         &INFO
     }
     fn frequency_response(&self, omega: f64, amplitude: f64) -> Complex64 {
-        // The linear servo's steady force is (-w^2 + j w c) H(jw) times the reference: while
-        // its amplitude stays below the limit the periodic state is the linear one.
+        // The linear servo's steady force (demand plus passive damping) for the joint's
+        // response X_J (H on a rigid trunk): while its amplitude stays below the limit the
+        // periodic state is the linear one.
         let (wn, zeta) = self.servo;
-        let h = wn * wn / Complex64::new(wn * wn - omega * omega, 2.0 * zeta * wn * omega);
-        let force = Complex64::new(-omega * omega, omega * self.passive_damping);
-        if force.norm() * h.norm() * amplitude <= 0.999 * self.limit {
+        let xj = joint_response(self.link, wn, zeta, omega);
+        let jw = Complex64::new(0.0, omega);
+        let force = wn * wn * (1.0 - xj) + jw * (self.passive_damping - 2.0 * zeta * wn) * xj;
+        if force.norm() * amplitude <= 0.999 * self.limit {
             return Complex64::new(1.0, 0.0);
         }
         let mut limits: [Box<dyn Effect>; 1] = [Box::new(self.clone())];
         servo_describing_function(
-            self.servo.0,
-            self.servo.1,
+            self.servo,
             self.h,
+            self.link,
             &mut limits,
             [2.0, self.limit, self.passive_damping],
             omega,
@@ -92,6 +96,7 @@ fn build(ctx: &BuildContext, v: &[f64]) -> Box<dyn Effect> {
         limit: v[0],
         passive_damping: v.get(1).copied().unwrap_or(0.0),
         servo: ctx.servo.unwrap_or((30.0, 1.0)),
+        link: ctx.link,
         h: ctx.h,
     })
 }

@@ -8,6 +8,7 @@
 
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
 use crate::effects::servo::servo_describing_function;
+use crate::effects::servo_link::TrunkLink;
 use num_complex::Complex64;
 
 /// Default regularisation speed, m/s.
@@ -50,6 +51,8 @@ pub struct CoulombFriction {
     pub v_s: f64,
     inv_v_s: f64,
     servo: (f64, f64),
+    /// The flexible trunk the servo drives (inside its loop), if any.
+    pub link: Option<TrunkLink>,
     h: f64,
 }
 
@@ -60,6 +63,7 @@ impl CoulombFriction {
             v_s,
             inv_v_s: 1.0 / v_s,
             servo,
+            link: None,
             h,
         }
     }
@@ -72,9 +76,9 @@ impl Effect for CoulombFriction {
     fn frequency_response(&self, omega: f64, amplitude: f64) -> Complex64 {
         let mut limits: [Box<dyn Effect>; 1] = [Box::new(self.clone())];
         servo_describing_function(
-            self.servo.0,
-            self.servo.1,
+            self.servo,
             self.h,
+            self.link,
             &mut limits,
             [1.0, self.level, self.v_s],
             omega,
@@ -105,10 +109,12 @@ impl Effect for CoulombFriction {
 }
 
 fn build(ctx: &BuildContext, v: &[f64]) -> Box<dyn Effect> {
-    Box::new(CoulombFriction::new(
+    let mut f = CoulombFriction::new(
         v[0],
         v.get(1).copied().unwrap_or(DEFAULT_V_S),
         ctx.servo.unwrap_or((30.0, 1.0)),
         ctx.h,
-    ))
+    );
+    f.link = ctx.link;
+    Box::new(f)
 }

@@ -10,12 +10,14 @@
 //! include a `drive` fraction, the motor's reflected inertia, that moves with the joint but
 //! is not part of the CoM) accelerates the inertia: `s^2 Q' x_J = wn^2 (r - x_J) - 2 zeta wn
 //! s x_J` with `Q' = (1 - share') + share' M`, `share' = share (1 - drive)`. So
-//! `x_c = Q wn^2 / (s^2 Q' + 2 zeta wn s + wn^2) r`, and this effect is the factor that turns
-//! the rigid trunk's `H` into that:
+//! `x_c = Q wn^2 / (s^2 Q' + 2 zeta wn s + wn^2) r`, and this effect's frequency response is
+//! the factor that turns the rigid trunk's `H` into that:
 //! `F = Q (s^2 + 2 zeta wn s + wn^2) / (s^2 Q' + 2 zeta wn s + wn^2)`, a linear filter of the
-//! CoM reference (unit gain at rest) built from the axis's tracking low-pass. Where the
-//! structural mode acts on the ZMP measurement instead (`structural_mode`), the mode does not
-//! feed back into the servo.
+//! CoM reference (unit gain at rest) built from the axis's tracking low-pass. In time the plant
+//! steps the two bodies inside the servo's loop ([`crate::effects::servo_link`]), so that a
+//! force limit or friction acts on the servo's force, as on the robot. Where the structural
+//! mode acts on the ZMP measurement instead (`structural_mode`), the mode does not feed back
+//! into the servo.
 
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
 use crate::lti::{Poly, TransferFunction};

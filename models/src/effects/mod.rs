@@ -10,6 +10,7 @@ pub mod pendulum;
 pub mod sensor_drift;
 pub mod sensor_lowpass;
 pub mod servo;
+pub mod servo_link;
 pub mod structural_mode;
 pub mod time_delay;
 pub mod tracking_lowpass;

@@ -7,6 +7,7 @@
 //! RK4 on four sub-steps, the reference interpolated linearly, where they switch.
 
 use crate::effect::Effect;
+use crate::effects::servo_link::{Linked, TrunkLink};
 use crate::effects::tracking_lowpass::TrackingLowpass;
 use crate::lti::discretise_foh;
 use nalgebra::{DMatrix, DVector};
@@ -38,6 +39,9 @@ pub struct Servo {
     r_prev: f64,
     /// What the servo effects added to the acceleration at the current state (NaN: unknown).
     c_end: f64,
+    /// A flexible trunk inside the loop (then `x`, `v` are the joint's; see
+    /// [`crate::effects::servo_link`]).
+    link: Option<Box<Linked>>,
 }
 
 impl Servo {
@@ -58,7 +62,20 @@ impl Servo {
             v: 0.0,
             r_prev: 0.0,
             c_end: f64::NAN,
+            link: None,
         }
+    }
+
+    /// The servo driving a flexible trunk `link` (the two-body loop of
+    /// [`crate::effects::servo_link`]); its state says where the CoM is.
+    pub fn with_link(mut self, link: TrunkLink) -> Servo {
+        self.link = Some(Box::new(Linked::new(
+            link,
+            self.wn2,
+            self.two_zeta_wn,
+            self.h,
+        )));
+        self
     }
 
     /// At rest at the reference `r`.
@@ -67,6 +84,58 @@ impl Servo {
         self.v = 0.0;
         self.r_prev = r;
         self.c_end = f64::NAN;
+        if let Some(l) = self.link.as_deref_mut() {
+            l.xu = r;
+            l.vu = 0.0;
+        }
+    }
+
+    /// The state: joint position and velocity, then the link's (with one).
+    fn state(&self) -> Vec<f64> {
+        match self.link.as_deref() {
+            None => vec![self.x, self.v],
+            Some(l) => vec![self.x, self.v, l.xu, l.vu],
+        }
+    }
+
+    /// Sets the state ([`Servo::state`]'s layout); the servo effects' offset is recomputed.
+    fn set_state(&mut self, s: &[f64]) {
+        (self.x, self.v) = (s[0], s[1]);
+        if let (Some(l), Some(u)) = (self.link.as_deref_mut(), s.get(2..4)) {
+            (l.xu, l.vu) = (u[0], u[1]);
+        }
+        self.c_end = f64::NAN;
+    }
+
+    /// The linear loop's periodic state at the start of a reference `amplitude sin(omega t)`.
+    fn linear_orbit(&self, omega: f64, amplitude: f64) -> Vec<f64> {
+        let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -self.wn2, -self.two_zeta_wn]);
+        let b = DVector::from_row_slice(&[0.0, self.wn2]);
+        let (a, b) = match self.link.as_deref() {
+            None => (a, b),
+            Some(l) => l.system(self.wn2, self.two_zeta_wn),
+        };
+        let n = a.nrows();
+        let jw = Complex64::new(0.0, omega);
+        let m = DMatrix::<Complex64>::from_fn(n, n, |i, k| {
+            let d = if i == k { jw } else { Complex64::new(0.0, 0.0) };
+            d - Complex64::new(a[(i, k)], 0.0)
+        });
+        let rhs = DVector::<Complex64>::from_fn(n, |i, _| Complex64::new(b[i] * amplitude, 0.0));
+        // The reference is the imaginary part of amplitude e^{j omega t}: at t = 0 the state
+        // is the imaginary part of the phasor.
+        m.lu()
+            .solve(&rhs)
+            .map_or(vec![0.0; n], |x| x.iter().map(|z| z.im).collect())
+    }
+
+    /// The CoM acceleration that the servo's force `force` gives at the current state.
+    #[inline]
+    fn com_acceleration(&self, force: f64) -> f64 {
+        match self.link.as_deref() {
+            None => force,
+            Some(l) => l.com(&[self.x, self.v, l.xu, l.vu], force).2,
+        }
     }
 
     #[inline]
@@ -99,7 +168,7 @@ impl Servo {
             self.r_prev = r0;
             self.c_end = f64::NAN;
             let d = self.demand(r0, self.x, self.v);
-            d + offset(limits, d, self.v)
+            self.com_acceleration(d + offset(limits, d, self.v))
         });
         (start, self.step(r, limits))
     }
@@ -111,6 +180,9 @@ impl Servo {
     /// shifted by `c / wn^2`, and the exact step is taken. Otherwise RK4 on four sub-steps.
     #[inline]
     pub fn step(&mut self, r: f64, limits: &mut [Box<dyn Effect>]) -> ServoState {
+        if self.link.is_some() {
+            return self.step_linked(r, limits);
+        }
         let r0 = self.r_prev;
         let dr = r - r0;
         let acceleration;
@@ -199,6 +271,79 @@ impl Servo {
         (x, v)
     }
 
+    /// [`Servo::step`] of the two-body loop: the exact linear step while the servo effects add
+    /// a constant force (as the rigid servo's), RK4 where they switch or clamp.
+    fn step_linked(&mut self, r: f64, limits: &mut [Box<dyn Effect>]) -> ServoState {
+        let Some(link) = self.link.take() else {
+            unreachable!("step_linked without a link")
+        };
+        let r0 = self.r_prev;
+        let dr = r - r0;
+        let s = [self.x, self.v, link.xu, link.vu];
+        let c0 = if self.c_end.is_nan() {
+            offset(limits, self.demand(r0, s[0], s[1]), s[1])
+        } else {
+            self.c_end
+        };
+        let lin = link.linear(&s, r0 + c0 / self.wn2, dr);
+        let c1 = offset(limits, self.demand(r, lin[0], lin[1]), lin[1]);
+        // The force held at a limit: the chain under that constant force, exactly, if the
+        // servo effects still give it at the step's end with the velocity's sign kept.
+        let held = |limits: &mut [Box<dyn Effect>]| {
+            let d0 = self.demand(r0, s[0], s[1]);
+            let f0 = d0 + c0;
+            let e = link.free(&s, f0);
+            let d1 = self.demand(r, e[0], e[1]);
+            let f1 = d1 + offset(limits, d1, e[1]);
+            let tol = 1e-12 * (f0.abs() + d0.abs() + d1.abs());
+            (c0 != 0.0 && (f1 - f0).abs() <= tol && (s[1] >= 0.0) == (e[1] >= 0.0)).then_some(e)
+        };
+        let end = if c1 == c0 && (s[1] >= 0.0) == (lin[1] >= 0.0) {
+            lin
+        } else if let Some(e) = held(limits) {
+            e
+        } else {
+            let k: f64 = limits.iter().map(|l| l.stiffness()).sum();
+            let sub = link.substeps(self.h, k);
+            let hs = self.h / sub as f64;
+            let mut x = s;
+            let f = |limits: &mut [Box<dyn Effect>], rr: f64, y: &[f64; 4]| -> [f64; 4] {
+                let force = self.accel(limits, rr, y[0], y[1]);
+                let (aj, au) = link.accelerations(y, force);
+                [y[1], aj, y[3], au]
+            };
+            for q in 0..sub {
+                let ra = r0 + dr * (q as f64 / sub as f64);
+                let rm = r0 + dr * ((q as f64 + 0.5) / sub as f64);
+                let rb = r0 + dr * ((q + 1) as f64 / sub as f64);
+                let add = |y: &[f64; 4], d: &[f64; 4], t: f64| -> [f64; 4] {
+                    [0, 1, 2, 3].map(|i| y[i] + t * d[i])
+                };
+                let k1 = f(limits, ra, &x);
+                let k2 = f(limits, rm, &add(&x, &k1, 0.5 * hs));
+                let k3 = f(limits, rm, &add(&x, &k2, 0.5 * hs));
+                let k4 = f(limits, rb, &add(&x, &k3, hs));
+                x = [0, 1, 2, 3]
+                    .map(|i| x[i] + hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
+            }
+            x
+        };
+        let d = self.demand(r, end[0], end[1]);
+        let c = offset(limits, d, end[1]);
+        let (position, velocity, acceleration) = link.com(&end, d + c);
+        (self.x, self.v) = (end[0], end[1]);
+        let mut link = link;
+        (link.xu, link.vu) = (end[2], end[3]);
+        self.link = Some(link);
+        self.c_end = c;
+        self.r_prev = r;
+        ServoState {
+            position,
+            velocity,
+            acceleration,
+        }
+    }
+
     #[inline]
     fn accel(&self, limits: &mut [Box<dyn Effect>], r: f64, x: f64, v: f64) -> f64 {
         let mut a = self.demand(r, x, v);
@@ -218,7 +363,7 @@ pub const MAX_SUBSTEPS: usize = 4096;
 /// stiffness is friction's slope at zero velocity, felt only while the velocity crosses
 /// zero, and the describing functions agree with a four times finer sub-step to 1e-4
 /// (`models/examples/dfbench.rs`) at a quarter of the cost.
-const SUBSTEP_STIFFNESS: f64 = 2.0;
+pub(crate) const SUBSTEP_STIFFNESS: f64 = 2.0;
 
 /// RK4 sub-steps of a step `h` with `limits`: at least [`MIN_SUBSTEPS`], more when a stiff
 /// effect (regularised friction) needs them, at most [`MAX_SUBSTEPS`].
@@ -257,7 +402,7 @@ fn offset(limits: &mut [Box<dyn Effect>], demand: f64, v: f64) -> f64 {
 /// Describing functions already computed, by their exact inputs: fits evaluate the same servo
 /// at the same frequencies and amplitudes many times (once per output, per operating point,
 /// per Jacobian column of a parameter the servo ignores).
-static DF_CACHE: LazyLock<Mutex<HashMap<[u64; 8], Complex64>>> =
+static DF_CACHE: LazyLock<Mutex<HashMap<[u64; 12], Complex64>>> =
     LazyLock::new(|| Mutex::new(HashMap::new()));
 
 /// Entries kept before the cache starts afresh.
@@ -268,7 +413,7 @@ pub fn clear_describing_function_cache() {
     DF_CACHE.lock().unwrap_or_else(|p| p.into_inner()).clear();
 }
 
-fn cached(key: [f64; 8], compute: impl FnOnce() -> Complex64) -> Complex64 {
+fn cached(key: [f64; 12], compute: impl FnOnce() -> Complex64) -> Complex64 {
     let k = key.map(f64::to_bits);
     let lock = || DF_CACHE.lock().unwrap_or_else(|p| p.into_inner());
     if let Some(v) = lock().get(&k).copied() {
@@ -284,8 +429,10 @@ fn cached(key: [f64; 8], compute: impl FnOnce() -> Complex64) -> Complex64 {
 }
 
 /// First harmonic of the servo position with `limits`, divided by the linear servo's, for a
-/// reference sine of `amplitude` at `omega`: the describing function of a servo effect.
-/// `identity` names the limits exactly (effect id and parameters) for the cache.
+/// reference sine of `amplitude` at `omega`: the describing function of a servo effect. The
+/// servo `(omega_n, zeta)` drives `link` if there is one (then the CoM's first harmonic over
+/// the linear two-body loop's). `identity` names the limits exactly (effect id and
+/// parameters) for the cache.
 ///
 /// The step divides the period exactly (so one period's Fourier sum is exact for a periodic
 /// response) and is about the servo's `h`, lengthened at low frequency to 1/2048 of a period
@@ -294,32 +441,38 @@ fn cached(key: [f64; 8], compute: impl FnOnce() -> Complex64) -> Complex64 {
 /// Both runs use the same step, so the sampling's own small effect on the first harmonic
 /// cancels in the ratio.
 pub fn servo_describing_function(
-    omega_n: f64,
-    zeta: f64,
+    (omega_n, zeta): (f64, f64),
     h: f64,
+    link: Option<TrunkLink>,
     limits: &mut [Box<dyn Effect>],
     identity: [f64; 3],
     omega: f64,
     amplitude: f64,
 ) -> Complex64 {
-    let base = [omega_n, zeta, h, omega];
+    let l = link.map_or([0.0; 4], |l| [l.omega_m, l.zeta_m, l.share, l.drive]);
     let with = cached(
         [
-            base[0],
-            base[1],
-            base[2],
-            base[3],
+            omega_n,
+            zeta,
+            h,
+            omega,
             amplitude,
             identity[0],
             identity[1],
             identity[2],
+            l[0],
+            l[1],
+            l[2],
+            l[3],
         ],
-        || servo_first_harmonic(omega_n, zeta, h, limits, omega, amplitude),
+        || first_harmonic(omega_n, zeta, h, link, limits, omega, amplitude, None).0,
     );
     // The linear servo's response does not depend on the amplitude.
     let without = cached(
-        [base[0], base[1], base[2], base[3], 0.0, 0.0, 0.0, 0.0],
-        || servo_first_harmonic(omega_n, zeta, h, &mut [], omega, 1.0),
+        [
+            omega_n, zeta, h, omega, 0.0, 0.0, 0.0, 0.0, l[0], l[1], l[2], l[3],
+        ],
+        || first_harmonic(omega_n, zeta, h, link, &mut [], omega, 1.0, None).0,
     );
     with / without
 }
@@ -343,7 +496,7 @@ pub fn servo_first_harmonic(
     omega: f64,
     amplitude: f64,
 ) -> Complex64 {
-    servo_first_harmonic_from(omega_n, zeta, h, limits, omega, amplitude, None).0
+    first_harmonic(omega_n, zeta, h, None, limits, omega, amplitude, None).0
 }
 
 /// Where a describing-function run's periods start: the servo's position and velocity at
@@ -368,17 +521,46 @@ pub fn servo_first_harmonic_from(
     amplitude: f64,
     start: Option<PeriodStart>,
 ) -> (Complex64, PeriodStart) {
+    first_harmonic(omega_n, zeta, h, None, limits, omega, amplitude, start)
+}
+
+/// [`servo_first_harmonic_from`] of the servo driving `link` (if any): the CoM's first
+/// harmonic. A linked run starts on the linear loop's periodic orbit (a lightly damped link
+/// would take many periods to settle from rest) and ignores `start`.
+#[allow(clippy::too_many_arguments)]
+fn first_harmonic(
+    omega_n: f64,
+    zeta: f64,
+    h: f64,
+    link: Option<TrunkLink>,
+    limits: &mut [Box<dyn Effect>],
+    omega: f64,
+    amplitude: f64,
+    start: Option<PeriodStart>,
+) -> (Complex64, PeriodStart) {
     let period = 2.0 * std::f64::consts::PI / omega;
     let target = h.max((period / 2048.0).min(2.5 * h)).min(max_step(limits));
     let per = ((period / target).ceil() as usize).max(16);
     let h_df = period / per as f64;
     let mut servo = Servo::new(omega_n, zeta, h_df);
+    if let Some(l) = link {
+        servo = servo.with_link(l);
+    }
     let slowest = TrackingLowpass { omega_n, zeta }.slowest_time_constant();
     let n_settle = (((8.0 * slowest).max(0.5 * period)) / h_df).ceil() as usize;
     // The reference by rotation: e^{j w k h}, renormalised once per period.
     let rot = Complex64::from_polar(1.0, omega * h_df);
     let mut e = Complex64::new(1.0, 0.0);
+    let start = if link.is_some() { None } else { start };
     match start {
+        None if link.is_some() => {
+            servo.reset(0.0);
+            servo.set_state(&servo.linear_orbit(omega, amplitude));
+            for _ in 0..n_settle {
+                e *= rot;
+                servo.step(amplitude * e.im, limits);
+            }
+        }
         None => {
             servo.reset(0.0);
             for _ in 0..n_settle {
@@ -398,13 +580,14 @@ pub fn servo_first_harmonic_from(
         position: servo.x,
         velocity: servo.v,
     };
+    let dim = servo.state().len();
     // One-period phasors, newest last. A response periodic over m input periods (a saturated
     // servo can lock into a subharmonic cycle) repeats them with period m; the Fourier
     // coefficient at omega over those m periods is their mean. Only the periods since the
     // last jump of the orbit extrapolation (below) are compared.
     let mut history: Vec<Complex64> = Vec::with_capacity(FAST_PERIODS);
     let mut since = 0;
-    let mut states: Vec<[f64; 2]> = vec![[servo.x, servo.v]];
+    let mut states: Vec<Vec<f64>> = vec![servo.state()];
     let same = |a: Complex64, b: Complex64| {
         (a - b).norm() <= FAST_SETTLED_REL * a.norm().max(b.norm()).max(1e-300)
     };
@@ -431,27 +614,27 @@ pub fn servo_first_harmonic_from(
         // A saturated servo approaches its orbit slowly (tens of periods). Near the orbit the
         // period map is linear, so four successive period-start states give it and its fixed
         // point; the run jumps there and goes on simulating (the test above still decides).
-        states.push([servo.x, servo.v]);
-        if period < FAST_PERIODS / 2 && states.len() == 4 {
-            // A jump costs three periods before the test can pass again: worth it only when
+        states.push(servo.state());
+        if period < FAST_PERIODS / 2 && states.len() == dim + 2 {
+            // A jump costs dim + 1 periods before the test can pass again: worth it only when
             // plain iteration would take longer (a fast-contracting map settles by itself).
-            if let Some(([x, v], radius)) = periodic_fixed_point(&states) {
-                let [a, b] = [states[3][0] - states[2][0], states[3][1] - states[2][1]];
-                let rel = a.hypot(b) / states[3][0].hypot(states[3][1]).max(1e-300);
+            if let Some((fixed, radius)) = periodic_fixed_point(&states) {
+                let (last, before) = (&states[dim + 1], &states[dim]);
+                let step: f64 = last.iter().zip(before).map(|(a, b)| (a - b).powi(2)).sum();
+                let size: f64 = last.iter().map(|a| a * a).sum();
+                let rel = step.sqrt() / size.sqrt().max(1e-300);
                 let plain = if rel <= FAST_SETTLED_REL {
                     0.0
                 } else {
                     (FAST_SETTLED_REL / rel).ln() / radius.ln()
                 };
                 if plain > 3.0 {
-                    servo.x = x;
-                    servo.v = v;
-                    servo.c_end = f64::NAN;
+                    servo.set_state(&fixed);
                     since = history.len();
                 }
             }
             states.clear();
-            states.push([servo.x, servo.v]);
+            states.push(servo.state());
         }
     }
     // Not locked to a cycle of up to six periods within sixty: the Fourier coefficient over
@@ -464,50 +647,40 @@ pub fn servo_first_harmonic_from(
     )
 }
 
-/// The fixed point of the linear map `s_{k+1} - s* = J (s_k - s*)` through four successive
-/// states and the spectral radius of `J`, if `J` contracts clearly (radius below 0.95; a map
-/// near a flip or an unstable orbit is left to plain iteration).
-fn periodic_fixed_point(s: &[[f64; 2]]) -> Option<([f64; 2], f64)> {
-    let d = |k: usize| [s[k + 1][0] - s[k][0], s[k + 1][1] - s[k][1]];
-    let (d0, d1, d2) = (d(0), d(1), d(2));
-    // J [d0 d1] = [d1 d2].
-    let det = d0[0] * d1[1] - d1[0] * d0[1];
-    let scale = (d0[0].hypot(d0[1]) * d1[0].hypot(d1[1])).max(1e-300);
-    if det.abs() <= 1e-9 * scale {
+/// The fixed point of the linear map `s_{k+1} - s* = J (s_k - s*)` through `n + 2` successive
+/// `n`-dimensional states and the spectral radius of `J`, if `J` contracts clearly (radius
+/// below 0.95; a map near a flip or an unstable orbit is left to plain iteration).
+fn periodic_fixed_point(s: &[Vec<f64>]) -> Option<(Vec<f64>, f64)> {
+    let n = s.first()?.len();
+    if s.len() != n + 2 {
         return None;
     }
-    let inv = [[d1[1] / det, -d1[0] / det], [-d0[1] / det, d0[0] / det]];
-    let j = [
-        [
-            d1[0] * inv[0][0] + d2[0] * inv[1][0],
-            d1[0] * inv[0][1] + d2[0] * inv[1][1],
-        ],
-        [
-            d1[1] * inv[0][0] + d2[1] * inv[1][0],
-            d1[1] * inv[0][1] + d2[1] * inv[1][1],
-        ],
-    ];
-    // Eigenvalues of J from its trace and determinant.
-    let (tr, dt) = (j[0][0] + j[1][1], j[0][0] * j[1][1] - j[0][1] * j[1][0]);
-    let disc = tr * tr / 4.0 - dt;
-    let radius = if disc >= 0.0 {
-        (tr / 2.0).abs() + disc.sqrt()
-    } else {
-        dt.abs().sqrt()
-    };
+    let d = |k: usize| DVector::from_iterator(n, (0..n).map(|i| s[k + 1][i] - s[k][i]));
+    let d0 = DMatrix::from_columns(&(0..n).map(d).collect::<Vec<_>>());
+    let d1 = DMatrix::from_columns(&(1..=n).map(d).collect::<Vec<_>>());
+    // J D0 = D1, D0 clearly invertible.
+    let scale: f64 = (0..n)
+        .map(|k| d0.column(k).norm())
+        .product::<f64>()
+        .max(1e-300);
+    if d0.determinant().abs() <= 1e-9 * scale {
+        return None;
+    }
+    let j = &d1 * d0.try_inverse()?;
+    let radius = j
+        .complex_eigenvalues()
+        .iter()
+        .map(|z| z.norm())
+        .fold(0.0, f64::max);
     if radius.is_nan() || radius >= 0.95 {
         return None;
     }
-    // (I - J) s* = s3 - J s2.
-    let s2 = s[2];
-    let rhs = [
-        s[3][0] - (j[0][0] * s2[0] + j[0][1] * s2[1]),
-        s[3][1] - (j[1][0] * s2[0] + j[1][1] * s2[1]),
-    ];
-    let (a, b, c, e) = (1.0 - j[0][0], -j[0][1], -j[1][0], 1.0 - j[1][1]);
-    let m = a * e - b * c;
-    let x = [(rhs[0] * e - b * rhs[1]) / m, (a * rhs[1] - c * rhs[0]) / m];
-    x.iter().all(|v| v.is_finite()).then_some((x, radius))
+    // (I - J) s* = s_{n+1} - J s_n.
+    let rhs = DVector::from_column_slice(&s[n + 1]) - &j * DVector::from_column_slice(&s[n]);
+    let x = (DMatrix::identity(n, n) - j).lu().solve(&rhs)?;
+    x.iter()
+        .all(|v| v.is_finite())
+        .then(|| (x.iter().copied().collect(), radius))
 }
 
 #[cfg(test)]
@@ -522,6 +695,7 @@ mod tests {
             h,
             binding: Binding::Axis(Axis::X),
             servo: Some((30.0, 1.0)),
+            link: None,
         };
         (lookup(kind).unwrap().build)(&ctx, &[value])
     }
@@ -672,13 +846,13 @@ mod tests {
     fn fixed_point_of_a_linear_period_map_is_exact() {
         let j = [[0.6, 0.2], [-0.1, 0.7]];
         let fixed = [0.3, -1.2];
-        let mut s = vec![[1.0, 2.0]];
+        let mut s = vec![vec![1.0, 2.0]];
         for _ in 0..3 {
             let d = [
                 s.last().unwrap()[0] - fixed[0],
                 s.last().unwrap()[1] - fixed[1],
             ];
-            s.push([
+            s.push(vec![
                 fixed[0] + j[0][0] * d[0] + j[0][1] * d[1],
                 fixed[1] + j[1][0] * d[0] + j[1][1] * d[1],
             ]);
@@ -690,10 +864,10 @@ mod tests {
             "{got:?}"
         );
         // A flip (eigenvalue -1.05) is left to plain iteration.
-        let mut s = vec![[1.0, 2.0]];
+        let mut s = vec![vec![1.0, 2.0]];
         for _ in 0..3 {
-            let p = *s.last().unwrap();
-            s.push([-1.05 * p[0], 0.5 * p[1]]);
+            let p = s.last().unwrap().clone();
+            s.push(vec![-1.05 * p[0], 0.5 * p[1]]);
         }
         assert!(periodic_fixed_point(&s).is_none());
     }
