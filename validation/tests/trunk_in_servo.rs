@@ -1,0 +1,209 @@
+//! A flexible trunk inside a force-limited servo, on data this project did not make: draws of
+//! the independent simulator (`zmp-indep-sim`, no physics code shared with `zmp-models`)
+//! whose trunk rings on a flexible link while the seed's acceleration limit acts on the fast,
+//! large records.
+//!
+//! The model is written from the drawn robot's own parameters (pendulum, servo, limit, link),
+//! nothing fitted: it must reproduce every record to its noise. With the flexible trunk as a
+//! filter of the CoM reference before a clamped rigid servo (the law before this test), the
+//! held-out draw 980004's saturated records were 100-230 times their noise floor off and the
+//! campaign 17.8x: the motor's limit clamps the force that drives the joint against the link,
+//! not the CoM's acceleration. The saturated records are checked on their own, so the test
+//! cannot pass on the many linear records alone.
+
+#[path = "support/indep_loop.rs"]
+mod indep_loop;
+#[path = "support/readme.rs"]
+mod readme;
+
+use indep_loop::loop_on;
+use num_complex::Complex64;
+use readme::readme_section;
+use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Robot};
+use zmp_models::effects::servo_link::{joint_response, TrunkLink};
+use zmp_models::ModelSpec;
+use zmp_validation::campaign::read_campaign;
+use zmp_validation::diagnose::cells::cells;
+use zmp_validation::diagnose::measure::{aggregate, predict, score};
+use zmp_validation::diagnose::run::observe_campaign;
+
+/// Single structural-mode draws: development seeds 5, 14, 23 (the suite's three), and
+/// held-out seed 980004 (examined after the one run of the 980000 range: the loop ended at
+/// 21x the noise floor with the mode unnamed; it is where the law was found wanting).
+const DRAWS: [u64; 4] = [5, 14, 23, 980_004];
+const SCENARIO: &str = "single:structural_mode";
+
+fn draw(seed: u64) -> Robot {
+    draw_with(
+        seed,
+        &SCENARIO.parse().unwrap(),
+        &Design::default(),
+        &DrawOptions {
+            coupling_form: Some(CouplingForm::Pendulum),
+        },
+    )
+}
+
+/// The model file of the drawn robot, from its parameters.
+fn truth_model(r: &Robot) -> ModelSpec {
+    let p = &r.pendulum;
+    let mut t = format!(
+        "format = \"zmp-model/1\"\nname = \"draw {:?}\"\n[pendulum]\n\
+         a11 = {:?}\na12 = {:?}\na21 = {:?}\na22 = {:?}\n\
+         b11 = {:?}\nb12 = {:?}\nb21 = {:?}\nb22 = {:?}\n",
+        r.seed,
+        p.a[0][0],
+        p.a[0][1],
+        p.a[1][0],
+        p.a[1][1],
+        p.b[0][0],
+        p.b[0][1],
+        p.b[1][0],
+        p.b[1][1]
+    );
+    for (k, name) in ["x", "y"].iter().enumerate() {
+        let a = &r.axes[k];
+        assert!(
+            a.transmission.is_none()
+                && a.friction.is_none()
+                && a.command_delay == 0.0
+                && a.servo.velocity_limit.is_none()
+                && a.modes.len() <= 1,
+            "the model below holds a rigid drive and at most one link per axis"
+        );
+        t += &format!(
+            "[tracking_lowpass.{name}]\nomega_n = {:?}\nzeta = {:?}\n\
+             [acceleration_saturation.{name}]\nlimit = {:?}\n",
+            a.servo.omega_n, a.servo.zeta, a.servo.accel_limit
+        );
+        if let Some(m) = a.modes.first() {
+            t += &format!(
+                "[flexible_trunk.{name}]\nomega_n = {:?}\nzeta = {:?}\nshare = {:?}\n\
+                 drive = {:?}\n",
+                m.omega, m.zeta, m.mass_fraction, a.drive_mass_fraction
+            );
+        }
+    }
+    assert!(
+        r.cross_coupling.is_none()
+            && r.op_dependence.is_none()
+            && r.sensor.lowpass_cutoff.is_none()
+            && r.sensor.drift_rate == [0.0, 0.0],
+        "a single mode draw has nothing else hidden"
+    );
+    ModelSpec::parse(&t, "truth.toml").unwrap()
+}
+
+#[test]
+fn a_force_limited_servo_driving_a_flexible_trunk_matches_the_independent_robot() {
+    let design = Design::default();
+    let mut linked_and_saturated = 0;
+    let mut summary = String::new();
+    for seed in DRAWS {
+        let robot = draw(seed);
+        let spec = truth_model(&robot);
+        let dir = tempfile::tempdir().unwrap();
+        let camp_dir = dir.path().join("campaign");
+        write_campaign(&robot, &design, &camp_dir, true).unwrap();
+        let camp = read_campaign(&camp_dir).unwrap();
+        let (obs, _) = observe_campaign(&camp, 2);
+        let refs: Vec<_> = obs.iter().collect();
+        let preds = predict(&spec, &refs).unwrap();
+        let scores: Vec<_> = refs.iter().zip(&preds).map(|(o, p)| score(o, p)).collect();
+        let (error, floor) = aggregate(&scores);
+        // The records where the limit acts: the linear loop would demand a larger force.
+        let saturated: Vec<usize> = obs
+            .iter()
+            .filter(|o| {
+                let a = &robot.axes[o.excited.index()];
+                let link = a.modes.first().map(|m| TrunkLink {
+                    omega_m: m.omega,
+                    zeta_m: m.zeta,
+                    share: m.mass_fraction,
+                    drive: a.drive_mass_fraction,
+                });
+                let (wn, z) = (a.servo.omega_n, a.servo.zeta);
+                let xj = joint_response(link, wn, z, o.omega);
+                let force = wn * wn * (1.0 - xj) - Complex64::new(0.0, o.omega * 2.0 * z * wn) * xj;
+                force.norm() * o.nominal_amplitude > a.servo.accel_limit
+            })
+            .map(|o| o.index)
+            .collect();
+        let worst_saturated = obs
+            .iter()
+            .zip(&scores)
+            .filter(|(o, _)| saturated.contains(&o.index))
+            .map(|(_, s)| s.error() / s.floor())
+            .fold(0.0, f64::max);
+        let linked = robot.axes.iter().filter(|a| !a.modes.is_empty()).count();
+        let at_limit = if saturated.is_empty() {
+            "the limit acting on no record".to_string()
+        } else {
+            format!(
+                "the limit acting on {} records ({worst_saturated:.2}x the noise floor at the \
+                 worst of them)",
+                saturated.len()
+            )
+        };
+        let line = format!(
+            "- {} seed {seed}: a mode on {linked} axes, {at_limit}: the drawn robot's own \
+             model is {:.2}x the noise floor over the campaign.\n",
+            if seed < 900_000 {
+                "development"
+            } else {
+                "held-out"
+            },
+            error / floor,
+        );
+        eprint!("{line}");
+        summary.push_str(&line);
+        for c in cells(&refs, &preds).iter().filter(|c| c.significant) {
+            eprintln!(
+                "  significant cell {} {:?} rad/s {} m: {:.2}x over {} records",
+                c.channel,
+                c.band_rad_s,
+                c.amplitude_m,
+                c.error / c.noise_floor,
+                c.records
+            );
+        }
+        if linked > 0 && !saturated.is_empty() {
+            linked_and_saturated += 1;
+        }
+        assert!(
+            error <= 1.5 * floor,
+            "draw {seed}: the drawn robot's own model is {:.2}x the noise floor off",
+            error / floor
+        );
+        assert!(
+            worst_saturated <= 3.0,
+            "draw {seed}: a saturated record is {worst_saturated:.2}x its noise floor off"
+        );
+    }
+    assert!(
+        linked_and_saturated >= 2,
+        "the draws must exercise the limit with a link ({linked_and_saturated})"
+    );
+    // The user's loop on the draw where the law was wanting, from the seed's structure.
+    let seed = DRAWS[3];
+    let r = loop_on(seed, SCENARIO);
+    let ratio = r.final_error / r.noise_floor;
+    let line = format!(
+        "- The loop on held-out seed {seed} (from the seed's structure, nothing of the draw \
+         known): adds {} and ends at {ratio:.2}x the noise floor ({}).\n",
+        r.found.join(", "),
+        if r.explained {
+            "explained"
+        } else {
+            "unexplained"
+        }
+    );
+    eprint!("{line}");
+    summary.push_str(&line);
+    assert!(
+        r.found.first().is_some_and(|f| f == "structural_mode") && r.explained,
+        "seed {seed}: the loop should name the mode first and explain the draw: {:?}, {ratio:.2}x",
+        r.found
+    );
+    readme_section("trunk-in-servo", &summary);
+}
