@@ -135,8 +135,8 @@ pub struct BuildContext {
     pub binding: Binding,
     /// The tracking low-pass of the bound input axis `(omega_n rad/s, zeta)`, for servo effects.
     pub servo: Option<(f64, f64)>,
-    /// The flexible trunk the bound axis's servo drives (inside its loop): the servo effects'
-    /// describing functions simulate the two-body loop.
+    /// The flexible trunk the bound axis's servo drives inside its loop (`in_servo = 1`): the
+    /// servo effects' describing functions simulate the two-body loop.
     pub link: Option<crate::effects::servo_link::TrunkLink>,
 }
 

@@ -51,8 +51,8 @@ pub struct Plant {
     command: [Chain; 2],
     servo: [Servo; 2],
     servo_limits: [Chain; 2],
-    /// A flexible trunk inside an axis's servo loop: the servo steps it, the chain only gives
-    /// its linear frequency response.
+    /// A flexible trunk inside an axis's servo loop (`in_servo = 1`): the servo steps it, the
+    /// chain only gives its linear frequency response.
     in_loop: [Chain; 2],
     lowpass: [TrackingLowpass; 2],
     pendulum: Pendulum,
@@ -120,8 +120,9 @@ impl Plant {
             }
         };
         let lowpass = [lp(Axis::X), lp(Axis::Y)];
-        // A flexible trunk is stepped inside its axis's servo loop (where a force limit or
-        // friction acts on the force that drives the joint against the link).
+        // A flexible trunk with `in_servo = 1` is stepped inside its axis's servo loop (where a
+        // force limit or friction acts on the force that drives the joint against the link);
+        // otherwise it is the small-signal filter of the CoM reference before the servo.
         let link = Axis::BOTH.map(|a| {
             let v = &spec.get("flexible_trunk", Binding::Axis(a))?.values;
             let link = TrunkLink {
@@ -130,7 +131,7 @@ impl Plant {
                 share: v.get(2).copied().unwrap_or(0.5),
                 drive: v.get(3).copied().unwrap_or(0.0),
             };
-            (link.share > 0.0).then_some(link)
+            (v.get(4) == Some(&1.0) && link.share > 0.0).then_some(link)
         });
         let servo = |k: usize| {
             let s = Servo::new(lowpass[k].omega_n, lowpass[k].zeta, h);

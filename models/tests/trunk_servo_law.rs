@@ -1,5 +1,6 @@
-//! A flexible trunk inside a limited servo (`effects::servo_link`): in the linear range the
-//! stepped two-body loop is the flexible trunk's filter before the rigid servo; where the
+//! A flexible trunk inside a limited servo (`in_servo = 1`, `effects::servo_link`): in the
+//! linear range the stepped two-body loop is the flexible trunk's filter before the rigid servo
+//! (`in_servo = 0`); where the
 //! limit acts, the describing response (the two-body loop's periodic first harmonic) is what
 //! the plant's own time steps give. Whether the law is the physical one is tested against an
 //! independently written simulator in `validation/tests/trunk_in_servo.rs`.
@@ -30,6 +31,7 @@ omega_n = 14.0
 zeta = 0.08
 share = 0.35
 drive = 0.29
+in_servo = 1
 "#;
 
 fn plant(extra: &str) -> Plant {
@@ -50,8 +52,17 @@ fn saturated(limit: f64) -> Plant {
 #[test]
 fn in_the_linear_range_the_stepped_loop_is_the_trunk_filter() {
     let mut linked = plant("");
+    let filter_text = BASE.replace("in_servo = 1\n", "in_servo = 0\n");
+    let filter = Plant::new(&ModelSpec::parse(&filter_text, "filter.toml").unwrap(), H).unwrap();
+    for w in [0.5, 5.0, 14.0, 40.0] {
+        assert_eq!(
+            linked.frequency_response(w),
+            filter.frequency_response(w),
+            "{w} rad/s"
+        );
+    }
     let rigid_text = BASE.replace(
-        "[flexible_trunk.x]\nomega_n = 14.0\nzeta = 0.08\nshare = 0.35\ndrive = 0.29\n",
+        "[flexible_trunk.x]\nomega_n = 14.0\nzeta = 0.08\nshare = 0.35\ndrive = 0.29\nin_servo = 1\n",
         "",
     );
     assert!(!rigid_text.contains("flexible_trunk"));

@@ -13,17 +13,18 @@
 //! `x_c = Q wn^2 / (s^2 Q' + 2 zeta wn s + wn^2) r`, and this effect's frequency response is
 //! the factor that turns the rigid trunk's `H` into that:
 //! `F = Q (s^2 + 2 zeta wn s + wn^2) / (s^2 Q' + 2 zeta wn s + wn^2)`, a linear filter of the
-//! CoM reference (unit gain at rest) built from the axis's tracking low-pass. In time the plant
-//! steps the two bodies inside the servo's loop ([`crate::effects::servo_link`]), so that a
-//! force limit or friction acts on the servo's force, as on the robot. Where the structural
-//! mode acts on the ZMP measurement instead (`structural_mode`), the mode does not feed back
-//! into the servo.
+//! CoM reference (unit gain at rest) built from the axis's tracking low-pass. With
+//! `in_servo = 1` the plant steps the two bodies inside the servo's loop instead
+//! ([`crate::effects::servo_link`]), so that a force limit or friction acts on the servo's
+//! force, as on the robot; the linear response is the same. Where the structural mode acts on
+//! the ZMP measurement instead (`structural_mode`), the mode does not feed back into the
+//! servo.
 
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
 use crate::lti::{Poly, TransferFunction};
 use crate::lti_effect::LtiEffect;
 
-pub static PARAMS: [ParamSpec; 4] = [
+pub static PARAMS: [ParamSpec; 5] = [
     ParamSpec::required("omega_n", "rad/s", 0.1, 2000.0, "mode of the flexible link"),
     ParamSpec::required("zeta", "1", 1e-3, 1.0, "damping ratio of the flexible link"),
     ParamSpec::optional(
@@ -42,7 +43,29 @@ pub static PARAMS: [ParamSpec; 4] = [
         0.0,
         "part of the axis's inertia in the drive (moves with the joint, not in the CoM)",
     ),
+    ParamSpec::optional(
+        "in_servo",
+        "1",
+        0.0,
+        1.0,
+        0.0,
+        "1: the two bodies stepped inside the servo's loop, so a force limit or friction acts on the force that drives them; 0: the small-signal filter before the servo",
+    ),
 ];
+
+/// `in_servo` is a switch between two laws, 0 or 1.
+fn validate(v: &[f64]) -> Result<(), (usize, String)> {
+    match v.get(4) {
+        Some(x) if *x != 0.0 && *x != 1.0 => Err((
+            4,
+            format!(
+                "{x}: 0 (a filter of the CoM reference before the servo) or 1 (stepped inside \
+                 the servo's loop)"
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
 
 pub static INFO: EffectInfo = EffectInfo {
     kind: "flexible_trunk",
@@ -52,7 +75,7 @@ pub static INFO: EffectInfo = EffectInfo {
     core: false,
     linear: true,
     params: &PARAMS,
-    validate: None,
+    validate: Some(validate),
     build,
 };
 

@@ -3,8 +3,10 @@
 //! friction) acts on the force that drives the joint and the link's reaction, not on a rigid
 //! trunk's acceleration.
 //!
-//! In the linear range the loop is the flexible trunk's filter of the CoM reference times the
-//! tracking low-pass (its frequency response is computed so). Where a servo effect acts the
+//! Chosen in the model file by `in_servo = 1` (the flexible trunk's default, 0, is the
+//! small-signal filter before the servo). In the linear range the loop is the flexible trunk's
+//! filter of the CoM reference times the tracking low-pass (its frequency response is computed
+//! so). Where a servo effect acts the
 //! order matters: the motor's force limit clamps `wn^2 (r - x_J) - 2 zeta wn x_J'`, which
 //! accelerates the joint (and the drive's inertia) against the link, while the CoM
 //! `x_c = (1 - share) x_J + share x_U` rings. A filter followed by a clamped rigid servo (the

@@ -111,8 +111,9 @@ pub fn structure_frees(spec: &ModelSpec) -> Vec<Free> {
             continue;
         }
         for (k, p) in e.info.params.iter().enumerate() {
-            // A regularisation is the law's shape, not something the data fit.
-            if p.name == "v_s" {
+            // A regularisation is the law's shape, not something the data fit; nor is the
+            // choice between two laws.
+            if p.name == "v_s" || p.name == "in_servo" {
                 continue;
             }
             let Some(&v) = e.values.get(k) else { continue };
