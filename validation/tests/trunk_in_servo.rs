@@ -12,6 +12,8 @@
 //! saturated records are checked on their own, so the test cannot pass on the many linear
 //! records alone.
 
+#[path = "support/indep_loop.rs"]
+mod indep_loop;
 #[path = "support/readme.rs"]
 mod readme;
 
@@ -184,6 +186,79 @@ fn a_force_limited_servo_driving_a_flexible_trunk_matches_the_independent_robot(
         "the filter law should miss the saturated records somewhere (worst {filter_worst:.2}x)"
     );
     readme_section("trunk-in-servo", &summary);
+}
+
+/// The loop on development seed 23 (a trunk mode on each plane, 12.5 and 27.2 rad/s, the limit
+/// acting on the fast, large records): its rounds name the x mode but, stepped as a filter, it
+/// stayed at 24.7x the noise floor. The loop then tries the mode inside the servo's loop,
+/// every parameter refitted, keeps it only because it fits better, and diagnoses again. It
+/// must end within 2x the floor with its modes inside the servo. Thresholds fixed before the
+/// run (a first version, with no round after the law, ended at 2.13x: the y mode unnamed).
+#[test]
+fn the_loop_moves_a_mode_the_filter_cannot_explain_inside_the_servo() {
+    let r = indep_loop::loop_on(23, SCENARIO);
+    let changes: Vec<&str> = r.versions.iter().map(|(_, a)| a.change.as_str()).collect();
+    let law = zmp_validation::diagnose::iterate::TRUNK_IN_SERVO;
+    eprintln!(
+        "versions {changes:?}; found {:?}; {:.2}x the floor at the end",
+        r.found,
+        r.final_error / r.noise_floor
+    );
+    let first = &r
+        .versions
+        .iter()
+        .find(|(_, a)| a.change == law)
+        .unwrap_or_else(|| panic!("no {law} version: {changes:?}"))
+        .1;
+    assert!(
+        first.error_before > 3.0 * r.noise_floor,
+        "the filter law was already close: {:.2}x the floor",
+        first.error_before / r.noise_floor
+    );
+    assert!(
+        first.error_after < 0.5 * first.error_before,
+        "the law removed little: {:.4} -> {:.4}",
+        first.error_before,
+        first.error_after
+    );
+    let trunks: Vec<_> = r
+        .final_model
+        .effects
+        .iter()
+        .filter(|e| e.info.kind == "flexible_trunk")
+        .collect();
+    assert!(
+        !trunks.is_empty() && !r.final_model.has("structural_mode"),
+        "{}",
+        r.final_model.to_toml()
+    );
+    assert!(
+        trunks.iter().all(|e| e.value("in_servo") == Some(1.0)),
+        "{}",
+        r.final_model.to_toml()
+    );
+    assert!(
+        r.final_error < 2.0 * r.noise_floor,
+        "after the law: {:.2}x the floor",
+        r.final_error / r.noise_floor
+    );
+    readme_section(
+        "trunk-in-servo-loop",
+        &format!(
+            "- development seed 23: versions {}; the first mode as a filter left {:.1}x the \
+             noise floor, inside the servo {:.2}x; at the end {:.2}x ({}), effects found: {}.\n",
+            changes.join(", "),
+            first.error_before / r.noise_floor,
+            first.error_after / r.noise_floor,
+            r.final_error / r.noise_floor,
+            if r.explained {
+                "explained"
+            } else {
+                "unexplained"
+            },
+            r.found.join(", ")
+        ),
+    );
 }
 
 fn range(seed: u64) -> &'static str {

@@ -152,9 +152,10 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     }
     let mut current_path = identified.clone();
     for (added, aug) in &r.versions {
-        // A version without an added effect is the structure refitted (`refit`).
+        // A version without an added effect is the structure refitted (`refit`) or its
+        // modes moved inside the servo's loop (`trunk-in-servo`).
         let label = if added.is_empty() {
-            "refit".to_string()
+            aug.change.clone()
         } else {
             added.join("+")
         };

@@ -482,11 +482,26 @@ fn structural_mode(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
 fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     let mut out = Vec::new();
     let n = 5;
+    // The second plane's link follows the law the loop chose for the first (`trunk_in_servo`).
+    let law = if spec
+        .effects
+        .iter()
+        .any(|e| e.info.kind == "flexible_trunk" && e.value("in_servo") == Some(1.0))
+    {
+        1.0
+    } else {
+        0.0
+    };
     for bindings in mode_variants(spec, r) {
         for k in 0..n {
             let wm = mode_start(r, k, n);
             let (zeta, share) = (0.08, 0.4);
-            let s = with(spec, "flexible_trunk", &bindings, &[wm, zeta, share, 0.3]);
+            let s = with(
+                spec,
+                "flexible_trunk",
+                &bindings,
+                &[wm, zeta, share, 0.3, law],
+            );
             out.push((
                 s,
                 trunk_frees(std::slice::from_ref(&bindings), wm, zeta, share, r),
@@ -504,6 +519,39 @@ fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
         }
     }
     out
+}
+
+/// The model with its structural modes stepped inside their servo's loop: a flexible trunk
+/// with `in_servo = 0` switched to 1, a mode on the ZMP path (`structural_mode`) replaced by a
+/// flexible trunk at the same axis started from its frequency, damping and share (and a third
+/// of the axis's inertia in the drive), with `in_servo = 1`. `None` when the model has no mode
+/// stepped as a filter. The parameters are starts: the caller refits them.
+pub fn trunk_in_servo(spec: &ModelSpec) -> Option<ModelSpec> {
+    let mut out = spec.clone();
+    let mut changed = false;
+    for e in &spec.effects {
+        match e.info.kind {
+            "flexible_trunk" if e.value("in_servo") != Some(1.0) => {
+                out.set_value("flexible_trunk", e.binding, "in_servo", 1.0);
+                changed = true;
+            }
+            "structural_mode" => {
+                let v = |p: &str, d: f64| e.value(p).unwrap_or(d);
+                let values = [
+                    v("omega_n", 10.0),
+                    v("zeta", 0.1),
+                    v("share", 0.5).clamp(0.05, 0.95),
+                    0.3,
+                    1.0,
+                ];
+                add_effect(&mut out, "flexible_trunk", &[e.binding], &values);
+                changed = true;
+            }
+            _ => {}
+        }
+    }
+    out.remove("structural_mode");
+    changed.then_some(out)
 }
 
 /// Upper bound of a structural mode's damping ratio in the fit: a resonance (peak gain
@@ -725,6 +773,37 @@ mod tests {
             op_span: [0.06, 0.04],
             axes_excited: [true, true],
         }
+    }
+
+    /// The law switch: a mode on the ZMP path becomes a link inside the servo at the same
+    /// axis from the same frequency, damping and share; a link stepped as a filter is switched;
+    /// a model without a mode stepped as a filter has no such variant.
+    #[test]
+    fn the_trunk_law_variant_moves_every_mode_inside_the_servo() {
+        let base = paper_with_limits(1.0, 1.2);
+        assert!(trunk_in_servo(&base).is_none());
+        let mut s = base.clone();
+        add_effect(&mut s, "structural_mode", &[AXES[0]], &[12.0, 0.06, 0.3]);
+        add_effect(
+            &mut s,
+            "flexible_trunk",
+            &[AXES[1]],
+            &[27.0, 0.05, 0.2, 0.2, 0.0],
+        );
+        let v = trunk_in_servo(&s).expect("a variant");
+        assert!(!v.has("structural_mode"));
+        for (b, wn, zeta, share) in [(AXES[0], 12.0, 0.06, 0.3), (AXES[1], 27.0, 0.05, 0.2)] {
+            let val = |p| v.value("flexible_trunk", b, p).unwrap();
+            assert_eq!(
+                [val("omega_n"), val("zeta"), val("share"), val("in_servo")],
+                [wn, zeta, share, 1.0]
+            );
+        }
+        assert!(trunk_in_servo(&v).is_none(), "already inside the servo");
+        assert_eq!(
+            v.value("acceleration_saturation", AXES[1], "limit"),
+            Some(1.2)
+        );
     }
 
     /// A limit that no record reaches has no gradient: the candidate restarts it from below
