@@ -52,8 +52,10 @@ use zmp_validation::par::parallel_map;
 /// pairs 7/12, clean 10/10, outside 4/8, closed 41/52, false effect 14/52; then examined:
 /// 980001, the lone play the loop did not find, to check the passive damping found on
 /// development seed 11: from a start model with one it names the play,
-/// `tests/passive_damping.rs`).
-const HELD_OUT_FIRST_SEED: u64 = 990_000;
+/// `tests/passive_damping.rs`); from 990000 (run once on the code of 366646c, the loop's
+/// trunk-in-servo step in: singles 15/21, saturation and coupling 6/6, pairs 7/12, clean
+/// 10/10, outside 4/8, closed 43/52, false effect 13/52).
+const HELD_OUT_FIRST_SEED: u64 = 1_000_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
