@@ -6,7 +6,7 @@
 use super::augment::{version_from_diagnosis, Augmented};
 use super::candidates::trunk_in_servo;
 use super::engine::{self, evaluate};
-use super::measure::{aggregate, chi2, predict, COMPONENTS};
+use super::measure::{aggregate, chi2, predict, score, Prediction, COMPONENTS};
 use super::observe::Observation;
 use super::run::{diagnose_observations, explains, observations_of, DiagnoseError, Diagnosis};
 use super::select::{CHI2_MIN, MAX_EFFECTS};
@@ -77,6 +77,8 @@ pub fn run_loop(
     let mut versions = Vec::new();
     let mut diagnoses = Vec::new();
     let mut refitted = false;
+    // Whether the rounds stopped with nothing to add (the law tried there) rather than ran out.
+    let mut settled = false;
     // The model was fitted to this campaign: no check that it is the right robot.
     let opts = &DiagnoseOptions {
         scale_check: false,
@@ -128,6 +130,7 @@ pub fn run_loop(
                 versions.push((Vec::new(), aug));
                 continue;
             }
+            settled = true;
             break;
         }
         for (added, fitted) in steps {
@@ -142,10 +145,12 @@ pub fn run_loop(
             versions.push((added, aug));
         }
     }
-    // The rounds ran out: the same once more.
-    if let Some(aug) = trunk_law(&current, &obs, opts, progress)? {
-        current = aug.spec.clone();
-        versions.push((Vec::new(), aug));
+    // The rounds ran out with effects still being added: the same once more.
+    if !settled {
+        if let Some(aug) = trunk_law(&current, &obs, opts, progress)? {
+            current = aug.spec.clone();
+            versions.push((Vec::new(), aug));
+        }
     }
     let explained = explains(&obs, &predict(&current, &obs)?);
     let final_error = aggregate(&evaluate(&current, &obs)?).0;
@@ -185,20 +190,22 @@ fn trunk_law(
     let Some(alt) = trunk_in_servo(current) else {
         return Ok(None);
     };
-    if explains(obs, &predict(current, obs)?) {
+    // Chi-square and error of a model, from one prediction.
+    let total = |p: &[Prediction]| -> (f64, f64) {
+        let chi: f64 = obs.iter().zip(p).map(|(o, pr)| chi2(o, pr)).sum();
+        let scores: Vec<_> = obs.iter().zip(p).map(|(o, pr)| score(o, pr)).collect();
+        (chi, aggregate(&scores).0)
+    };
+    let now = predict(current, obs)?;
+    if explains(obs, &now) {
         return Ok(None);
     }
     progress("trying the trunk inside its servo");
-    let total = |spec: &ModelSpec| -> Result<(f64, f64), LoopError> {
-        let p = predict(spec, obs)?;
-        let chi: f64 = obs.iter().zip(&p).map(|(o, pr)| chi2(o, pr)).sum();
-        Ok((chi, aggregate(&evaluate(spec, obs)?).0))
-    };
     let Some(fitted) = engine::refit_all(&alt, obs) else {
         return Ok(None);
     };
-    let (chi_now, err_now) = total(current)?;
-    let (chi_alt, err_alt) = total(&fitted.spec)?;
+    let (chi_now, err_now) = total(&now);
+    let (chi_alt, err_alt) = total(&predict(&fitted.spec, obs)?);
     let excess = (chi_now - (COMPONENTS * obs.len()) as f64).max(0.0);
     if !(chi_alt < chi_now - CHI2_MIN.max(0.1 * excess) && err_alt < err_now) {
         return Ok(None);
