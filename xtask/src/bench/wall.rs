@@ -41,6 +41,11 @@ pub const MEDIANS: &[(&str, &str)] = &[
         "`xtask diagnose` on the 168-record campaign (process)",
     ),
     (
+        "command/loop_168",
+        "`xtask loop` (identify, diagnose, augment) on a 168-record campaign of the \
+         independent simulator: saturation + delay + drift (process; target <= 20 s)",
+    ),
+    (
         "diagnose/delay_and_drift_168",
         "diagnosis, delay + drift robot (library)",
     ),
