@@ -196,7 +196,7 @@ fn bench(c: &mut Criterion) {
         v["outcome"]
     );
     g.warm_up_time(Duration::from_millis(1))
-        .measurement_time(Duration::from_secs(60));
+        .measurement_time(Duration::from_secs(100));
     g.bench_function("loop_168", |b| b.iter(|| xtask(&bin, &lp)));
     g.finish();
     // `cargo test --benches` runs each bench once: skip the peer there.
