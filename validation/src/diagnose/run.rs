@@ -5,10 +5,11 @@
 use super::candidates::CATALOGUE;
 use super::cells::{cells, channel_summary, Cell};
 use super::engine::{
-    control, distinct_omegas, own_parameters, without_effect, Scored, EXPLAINED_RATIO,
+    control, distinct_omegas, own_parameters, without_effect, Scored, EXPLAINED_CHI2_PER_COMPONENT,
+    EXPLAINED_RATIO,
 };
 use super::evidence::sentence;
-use super::measure::{aggregate, predict, score, Prediction};
+use super::measure::{aggregate, chi2, predict, score, Prediction, COMPONENTS};
 use super::observe::{observe, Observation};
 use super::select::{gain, search};
 use crate::campaign::Campaign;
@@ -283,11 +284,15 @@ fn significant_cells(c: Vec<Cell>) -> Vec<Cell> {
 }
 
 /// Whether `preds` explain the observations: error within [`EXPLAINED_RATIO`] of the noise
-/// floor and no cell significantly above its floor.
+/// floor, chi-square within [`EXPLAINED_CHI2_PER_COMPONENT`] per residual component, and no
+/// cell significantly above its floor.
 pub fn explains(obs: &[&Observation], preds: &[Prediction]) -> bool {
     let scores: Vec<_> = obs.iter().zip(preds).map(|(o, p)| score(o, p)).collect();
     let (e, f) = aggregate(&scores);
-    e <= EXPLAINED_RATIO * f && !cells(obs, preds).iter().any(|c| c.significant)
+    let x2: f64 = obs.iter().zip(preds).map(|(o, p)| chi2(o, p)).sum();
+    e <= EXPLAINED_RATIO * f
+        && x2 <= EXPLAINED_CHI2_PER_COMPONENT * (COMPONENTS * obs.len()) as f64
+        && !cells(obs, preds).iter().any(|c| c.significant)
 }
 
 /// Runs the diagnosis. `progress(what)` reports candidates as they finish.
