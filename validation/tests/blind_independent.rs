@@ -54,8 +54,12 @@ use zmp_validation::par::parallel_map;
 /// development seed 11: from a start model with one it names the play,
 /// `tests/passive_damping.rs`); from 990000 (run once on the code of 366646c, the loop's
 /// trunk-in-servo step in: singles 15/21, saturation and coupling 6/6, pairs 7/12, clean
-/// 10/10, outside 4/8, closed 43/52, false effect 13/52).
-const HELD_OUT_FIRST_SEED: u64 = 1_000_000;
+/// 10/10, outside 4/8, closed 43/52, false effect 13/52; then examined: 990002, a friction the
+/// loop called explained at 1.2x the floor with a chi-square of 7 per component, which led to
+/// the chi-square condition for "explained"); from 1000000 (run once on the code of f1f3fe7:
+/// singles 17/21, saturation and coupling 5/6, pairs 9/12, clean 10/10, outside 4/8, closed
+/// 41/52, false effect 12/52).
+const HELD_OUT_FIRST_SEED: u64 = 1_010_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
