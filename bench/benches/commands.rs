@@ -86,10 +86,23 @@ fn python() -> PathBuf {
 
 /// Runs `xtask args...` to the end, output discarded; panics naming the command on failure.
 fn xtask(bin: &Path, args: &[&std::ffi::OsStr]) {
+    run_xtask(bin, args, Stdio::null());
+}
+
+/// Runs `xtask args... --json` to the end and returns what it prints.
+fn xtask_json(bin: &Path, args: &[&std::ffi::OsStr]) -> serde_json::Value {
+    let mut args = args.to_vec();
+    args.push("--json".as_ref());
+    let out = run_xtask(bin, &args, Stdio::piped());
+    serde_json::from_slice(&out).unwrap_or_else(|e| panic!("xtask {args:?}: not JSON: {e}"))
+}
+
+/// [`xtask`] with its standard output going to `stdout` (returned when piped).
+fn run_xtask(bin: &Path, args: &[&std::ffi::OsStr], stdout: Stdio) -> Vec<u8> {
     let out = Command::new(bin)
         .args(args)
         .stdin(Stdio::null())
-        .stdout(Stdio::null())
+        .stdout(stdout)
         .stderr(Stdio::piped())
         .output()
         .expect("starting xtask");
@@ -99,6 +112,7 @@ fn xtask(bin: &Path, args: &[&std::ffi::OsStr]) {
         args,
         String::from_utf8_lossy(&out.stderr)
     );
+    out.stdout
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -168,19 +182,7 @@ fn bench(c: &mut Criterion) {
         loop_out.as_os_str(),
         "--force".as_ref(),
     ];
-    let mut checked = lp.to_vec();
-    checked.push("--json".as_ref());
-    let out = Command::new(&bin)
-        .args(&checked)
-        .stdin(Stdio::null())
-        .output()
-        .expect("starting xtask loop");
-    assert!(
-        out.status.success(),
-        "xtask loop failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("loop --json");
+    let v = xtask_json(&bin, &lp);
     let found: Vec<&str> = v["found"]
         .as_array()
         .expect("found")

@@ -5,7 +5,7 @@
 use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions};
 use zmp_validation::campaign::read_campaign;
 use zmp_validation::diagnose::iterate::run_loop;
-use zmp_validation::diagnose::measure::{chi2, predict, COMPONENTS};
+use zmp_validation::diagnose::measure::{chi2_total, predict, COMPONENTS};
 use zmp_validation::diagnose::observe::Observation;
 use zmp_validation::diagnose::DiagnoseOptions;
 use zmp_validation::identify::IdentifyOptions;
@@ -60,9 +60,7 @@ fn main() -> anyhow::Result<()> {
     // calls a model explained at EXPLAINED_CHI2_PER_COMPONENT or below, with the error rule).
     let obs: Vec<&Observation> = r.observations.iter().collect();
     let per = |m: &zmp_models::ModelSpec| -> anyhow::Result<f64> {
-        let p = predict(m, &obs)?;
-        let x2: f64 = obs.iter().zip(&p).map(|(o, p)| chi2(o, p)).sum();
-        Ok(x2 / (COMPONENTS * obs.len()) as f64)
+        Ok(chi2_total(&obs, &predict(m, &obs)?) / (COMPONENTS * obs.len()) as f64)
     };
     println!(
         "chi-square per component: identified {:.2}",

@@ -20,7 +20,9 @@ use super::candidates::{
     DataRange, Free, Start, CATALOGUE,
 };
 use super::lm::{minimise, Bounded};
-use super::measure::{aggregate, chi2, predict, score, whitened, RecordScore, COMPONENTS};
+use super::measure::{
+    aggregate, chi2, chi2_total, predict, score, whitened, RecordScore, COMPONENTS,
+};
 use super::observe::Observation;
 use std::collections::BTreeMap;
 use zmp_models::{Axis, Binding, ModelSpec};
@@ -396,9 +398,7 @@ pub fn score_candidate(c: &Candidate, base: &ModelSpec, obs: &[&Observation]) ->
         return None;
     }
     let base_chi2 = if is_costly(c.effect) || heavy_base(base) {
-        predict(base, obs)
-            .ok()
-            .map(|p| obs.iter().zip(&p).map(|(o, pr)| chi2(o, pr)).sum::<f64>())
+        predict(base, obs).ok().map(|p| chi2_total(obs, &p))
     } else {
         None
     };

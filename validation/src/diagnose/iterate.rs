@@ -6,7 +6,7 @@
 use super::augment::{version_from_diagnosis, Augmented};
 use super::candidates::trunk_in_servo;
 use super::engine::{self, evaluate};
-use super::measure::{aggregate, chi2, predict, score, Prediction, COMPONENTS};
+use super::measure::{aggregate, chi2_total, predict, score, Prediction, COMPONENTS};
 use super::observe::Observation;
 use super::run::{diagnose_observations, explains, observations_of, DiagnoseError, Diagnosis};
 use super::select::{CHI2_MIN, MAX_EFFECTS};
@@ -152,8 +152,9 @@ pub fn run_loop(
             versions.push((Vec::new(), aug));
         }
     }
-    let explained = explains(&obs, &predict(&current, &obs)?);
-    let final_error = aggregate(&evaluate(&current, &obs)?).0;
+    let preds = predict(&current, &obs)?;
+    let explained = explains(&obs, &preds);
+    let final_error = error(&obs, &preds);
     Ok(LoopResult {
         identification: ident,
         identified_error: e0,
@@ -191,11 +192,7 @@ fn trunk_law(
         return Ok(None);
     };
     // Chi-square and error of a model, from one prediction.
-    let total = |p: &[Prediction]| -> (f64, f64) {
-        let chi: f64 = obs.iter().zip(p).map(|(o, pr)| chi2(o, pr)).sum();
-        let scores: Vec<_> = obs.iter().zip(p).map(|(o, pr)| score(o, pr)).collect();
-        (chi, aggregate(&scores).0)
-    };
+    let total = |p: &[Prediction]| -> (f64, f64) { (chi2_total(obs, p), error(obs, p)) };
     let now = predict(current, obs)?;
     if explains(obs, &now) {
         return Ok(None);
@@ -217,4 +214,10 @@ fn trunk_law(
         TRUNK_IN_SERVO,
         opts,
     )?))
+}
+
+/// The campaign's error of predictions (the RMS over records of [`score`]).
+fn error(obs: &[&Observation], preds: &[Prediction]) -> f64 {
+    let scores: Vec<_> = obs.iter().zip(preds).map(|(o, p)| score(o, p)).collect();
+    aggregate(&scores).0
 }

@@ -200,6 +200,12 @@ pub fn whitened(o: &Observation, p: &Prediction, out: &mut Vec<f64>) {
     }
 }
 
+/// The chi-square of records against their predictions: [`chi2`] summed (about
+/// [`COMPONENTS`] per record for a model that is right).
+pub fn chi2_total(obs: &[&Observation], preds: &[Prediction]) -> f64 {
+    obs.iter().zip(preds).map(|(o, p)| chi2(o, p)).sum()
+}
+
 /// The chi-square of one record against a prediction (see [`whitened`]).
 pub fn chi2(o: &Observation, p: &Prediction) -> f64 {
     let mut r = Vec::with_capacity(COMPONENTS);

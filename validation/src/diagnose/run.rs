@@ -9,7 +9,7 @@ use super::engine::{
     EXPLAINED_RATIO,
 };
 use super::evidence::sentence;
-use super::measure::{aggregate, chi2, predict, score, Prediction, COMPONENTS};
+use super::measure::{aggregate, chi2_total, predict, score, Prediction, COMPONENTS};
 use super::observe::{observe, Observation};
 use super::select::{gain, search};
 use crate::campaign::Campaign;
@@ -289,9 +289,8 @@ fn significant_cells(c: Vec<Cell>) -> Vec<Cell> {
 pub fn explains(obs: &[&Observation], preds: &[Prediction]) -> bool {
     let scores: Vec<_> = obs.iter().zip(preds).map(|(o, p)| score(o, p)).collect();
     let (e, f) = aggregate(&scores);
-    let x2: f64 = obs.iter().zip(preds).map(|(o, p)| chi2(o, p)).sum();
     e <= EXPLAINED_RATIO * f
-        && x2 <= EXPLAINED_CHI2_PER_COMPONENT * (COMPONENTS * obs.len()) as f64
+        && chi2_total(obs, preds) <= EXPLAINED_CHI2_PER_COMPONENT * (COMPONENTS * obs.len()) as f64
         && !cells(obs, preds).iter().any(|c| c.significant)
 }
 
