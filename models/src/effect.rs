@@ -183,6 +183,14 @@ pub trait Effect: Send + Sync + fmt::Debug {
     /// Servo effects return the servo's response with the effect divided by the one without.
     fn frequency_response(&self, omega_rad_s: f64, amplitude: f64) -> Complex64;
 
+    /// Third harmonic of the effect's output over the input's amplitude, for an input
+    /// `amplitude sin(omega t)` (sin-referenced phasor, `y_3(t) = Im(Y_3 e^{3 j omega t})`):
+    /// zero for linear effects. Servo effects return the servo position's (the CoM's with a
+    /// linked trunk), absolute: the linear servo has none.
+    fn third_harmonic(&self, _omega_rad_s: f64, _amplitude: f64) -> Complex64 {
+        Complex64::new(0.0, 0.0)
+    }
+
     /// Puts the effect at rest for the constant input `u`; returns its output at rest.
     fn reset(&mut self, u: f64) -> f64;
 

@@ -400,7 +400,7 @@ impl Plant {
     pub fn frequency_response(&self, omega: f64) -> [[Complex64; 2]; 2] {
         let mut g = [[Complex64::new(0.0, 0.0); 2]; 2];
         for ch in Channel::ALL {
-            g[ch.output.index()][ch.input.index()] = self.channel_response(ch, omega, None);
+            g[ch.output.index()][ch.input.index()] = self.channel_response(ch, omega, None).0;
         }
         g
     }
@@ -410,41 +410,89 @@ impl Plant {
     /// The amplitude is carried along the command chain; the servo effects' describing
     /// functions multiply.
     pub fn describing_response(&self, ch: Channel, omega: f64, amplitude: f64) -> Complex64 {
+        self.channel_response(ch, omega, Some(amplitude)).0
+    }
+
+    /// [`Plant::describing_response`] and the channel's third harmonic over the reference's
+    /// amplitude, for a reference `amplitude sin(omega t)` (sin-referenced phasors; for an
+    /// input of phase `phi` the third harmonic turns by `3 phi`). Each nonlinear effect's own
+    /// third harmonic ([`Effect::third_harmonic`], at the amplitude and phase of the first
+    /// harmonic reaching it) is carried through the linear elements after it at `3 omega`,
+    /// and third harmonics of several effects add (first order in the distortion). The
+    /// servo passes a third harmonic from the command chain as its linear response.
+    pub fn describing_harmonics(
+        &self,
+        ch: Channel,
+        omega: f64,
+        amplitude: f64,
+    ) -> (Complex64, Complex64) {
         self.channel_response(ch, omega, Some(amplitude))
     }
 
-    fn channel_response(&self, ch: Channel, omega: f64, amplitude: Option<f64>) -> Complex64 {
+    /// The first-harmonic response of a channel and, with an amplitude, its third harmonic.
+    fn channel_response(
+        &self,
+        ch: Channel,
+        omega: f64,
+        amplitude: Option<f64>,
+    ) -> (Complex64, Complex64) {
         let (i, j) = (ch.output.index(), ch.input.index());
+        let zero = Complex64::new(0.0, 0.0);
         let mut g = Complex64::new(1.0, 0.0);
-        let mut amp = amplitude.unwrap_or(0.0);
+        let mut g3 = zero;
+        let w3 = 3.0 * omega;
+        let a0 = amplitude.unwrap_or(0.0);
+        let mut amp = a0;
+        // An effect's own third harmonic, for its input `amp sin(omega t + arg g)`, over the
+        // reference's amplitude.
+        let own = |e: &dyn Effect, g: Complex64, amp: f64| {
+            if e.info().linear || a0 <= 0.0 || g.norm() == 0.0 {
+                return zero;
+            }
+            let p = g / g.norm();
+            e.third_harmonic(omega, amp) * (amp / a0) * p * p * p
+        };
         // The amplitude each nonlinear effect sees is the reference's after the command
         // effects before it.
         for e in &self.command[j] {
             if e.info().linear || amplitude.is_some() {
+                if amplitude.is_some() {
+                    g3 = g3 * e.frequency_response(w3, amp) + own(e.as_ref(), g, amp);
+                }
                 let n = e.frequency_response(omega, amp);
                 g *= n;
                 amp *= n.norm();
             }
         }
+        let mut servo3 = zero;
         if amplitude.is_some() {
+            let reference = g;
             for e in &self.servo_limits[j] {
+                servo3 += own(e.as_ref(), reference, amp);
                 g *= e.frequency_response(omega, amp);
             }
         }
         // The linked loop's linear response is the flexible trunk's filter times `H`; the
-        // servo effects' describing functions above are relative to it.
+        // servo effects' describing functions above are relative to it, their third harmonics
+        // are the servo's own (the CoM's with a linked trunk).
         for e in &self.in_loop[j] {
             g *= e.frequency_response(omega, amp);
+            g3 *= e.frequency_response(w3, amp);
         }
         g *= self.lowpass[j].tf().freq(omega);
-        g *= Complex64::new(self.a_lin[i][j] + self.b[i][j] * omega * omega, 0.0);
-        for e in &self.channel[i][j] {
-            g *= e.frequency_response(omega, amp);
+        if amplitude.is_some() {
+            g3 = g3 * self.lowpass[j].tf().freq(w3) + servo3;
         }
-        for e in &self.sensor[i] {
+        let pendulum = |w: f64| Complex64::new(self.a_lin[i][j] + self.b[i][j] * w * w, 0.0);
+        g *= pendulum(omega);
+        g3 *= pendulum(w3);
+        for e in self.channel[i][j].iter().chain(&self.sensor[i]) {
             g *= e.frequency_response(omega, amp);
+            if amplitude.is_some() {
+                g3 *= e.frequency_response(w3, amp);
+            }
         }
-        g
+        (g, g3)
     }
 
     /// The simulated first harmonic of both outputs, divided by the input's, for a sine of

@@ -11,7 +11,7 @@
 //! sines further than the clamp alone (`c = 0`, the seed's law).
 
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
-use crate::effects::servo::servo_describing_function;
+use crate::effects::servo::servo_harmonics;
 use crate::effects::servo_link::{joint_response, TrunkLink};
 use num_complex::Complex64;
 
@@ -55,11 +55,9 @@ pub struct AccelerationSaturation {
     h: f64,
 }
 
-impl Effect for AccelerationSaturation {
-    fn info(&self) -> &'static EffectInfo {
-        &INFO
-    }
-    fn frequency_response(&self, omega: f64, amplitude: f64) -> Complex64 {
+impl AccelerationSaturation {
+    /// The describing function and the servo's third harmonic (see [`servo_harmonics`]).
+    fn harmonics(&self, omega: f64, amplitude: f64) -> (Complex64, Complex64) {
         // The linear servo's steady force (demand plus passive damping) for the joint's
         // response X_J (H on a rigid trunk): while its amplitude stays below the limit the
         // periodic state is the linear one.
@@ -68,10 +66,10 @@ impl Effect for AccelerationSaturation {
         let jw = Complex64::new(0.0, omega);
         let force = wn * wn * (1.0 - xj) + jw * (self.passive_damping - 2.0 * zeta * wn) * xj;
         if force.norm() * amplitude <= 0.999 * self.limit {
-            return Complex64::new(1.0, 0.0);
+            return (Complex64::new(1.0, 0.0), Complex64::new(0.0, 0.0));
         }
         let mut limits: [Box<dyn Effect>; 1] = [Box::new(self.clone())];
-        servo_describing_function(
+        servo_harmonics(
             self.servo,
             self.h,
             self.link,
@@ -80,6 +78,18 @@ impl Effect for AccelerationSaturation {
             omega,
             amplitude,
         )
+    }
+}
+
+impl Effect for AccelerationSaturation {
+    fn info(&self) -> &'static EffectInfo {
+        &INFO
+    }
+    fn frequency_response(&self, omega: f64, amplitude: f64) -> Complex64 {
+        self.harmonics(omega, amplitude).0
+    }
+    fn third_harmonic(&self, omega: f64, amplitude: f64) -> Complex64 {
+        self.harmonics(omega, amplitude).1
     }
     fn reset(&mut self, u: f64) -> f64 {
         u

@@ -7,7 +7,7 @@
 //! motions lag and shrink, large ones barely notice.
 
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
-use crate::effects::servo::servo_describing_function;
+use crate::effects::servo::servo_harmonics;
 use crate::effects::servo_link::TrunkLink;
 use num_complex::Complex64;
 
@@ -69,13 +69,11 @@ impl CoulombFriction {
     }
 }
 
-impl Effect for CoulombFriction {
-    fn info(&self) -> &'static EffectInfo {
-        &INFO
-    }
-    fn frequency_response(&self, omega: f64, amplitude: f64) -> Complex64 {
+impl CoulombFriction {
+    /// The describing function and the servo's third harmonic (see [`servo_harmonics`]).
+    fn harmonics(&self, omega: f64, amplitude: f64) -> (Complex64, Complex64) {
         let mut limits: [Box<dyn Effect>; 1] = [Box::new(self.clone())];
-        servo_describing_function(
+        servo_harmonics(
             self.servo,
             self.h,
             self.link,
@@ -84,6 +82,18 @@ impl Effect for CoulombFriction {
             omega,
             amplitude,
         )
+    }
+}
+
+impl Effect for CoulombFriction {
+    fn info(&self) -> &'static EffectInfo {
+        &INFO
+    }
+    fn frequency_response(&self, omega: f64, amplitude: f64) -> Complex64 {
+        self.harmonics(omega, amplitude).0
+    }
+    fn third_harmonic(&self, omega: f64, amplitude: f64) -> Complex64 {
+        self.harmonics(omega, amplitude).1
     }
     fn reset(&mut self, u: f64) -> f64 {
         u

@@ -402,7 +402,7 @@ fn offset(limits: &mut [Box<dyn Effect>], demand: f64, v: f64) -> f64 {
 /// Describing functions already computed, by their exact inputs: fits evaluate the same servo
 /// at the same frequencies and amplitudes many times (once per output, per operating point,
 /// per Jacobian column of a parameter the servo ignores).
-static DF_CACHE: LazyLock<Mutex<HashMap<[u64; 12], Complex64>>> =
+static DF_CACHE: LazyLock<Mutex<HashMap<[u64; 12], Harmonics>>> =
     LazyLock::new(|| Mutex::new(HashMap::new()));
 
 /// Entries kept before the cache starts afresh.
@@ -413,7 +413,7 @@ pub fn clear_describing_function_cache() {
     DF_CACHE.lock().unwrap_or_else(|p| p.into_inner()).clear();
 }
 
-fn cached(key: [f64; 12], compute: impl FnOnce() -> Complex64) -> Complex64 {
+fn cached(key: [f64; 12], compute: impl FnOnce() -> Harmonics) -> Harmonics {
     let k = key.map(f64::to_bits);
     let lock = || DF_CACHE.lock().unwrap_or_else(|p| p.into_inner());
     if let Some(v) = lock().get(&k).copied() {
@@ -429,8 +429,11 @@ fn cached(key: [f64; 12], compute: impl FnOnce() -> Complex64) -> Complex64 {
 }
 
 /// First harmonic of the servo position with `limits`, divided by the linear servo's, for a
-/// reference sine of `amplitude` at `omega`: the describing function of a servo effect. The
-/// servo `(omega_n, zeta)` drives `link` if there is one (then the CoM's first harmonic over
+/// reference sine of `amplitude` at `omega` (the describing function of a servo effect), and,
+/// from the same run, the servo position's third harmonic over the reference's amplitude
+/// (absolute: the linear servo has none; sin-referenced like every phasor here,
+/// `x_3(t) = Im(X_3 e^{3 j omega t})` for the reference `amplitude sin(omega t)`). The servo
+/// `(omega_n, zeta)` drives `link` if there is one (then the CoM's harmonics, the first over
 /// the linear two-body loop's). `identity` names the limits exactly (effect id and
 /// parameters) for the cache.
 ///
@@ -440,7 +443,7 @@ fn cached(key: [f64; 12], compute: impl FnOnce() -> Complex64) -> Complex64 {
 /// step, and the RK4 sub-steps follow the effects' stiffness.
 /// Both runs use the same step, so the sampling's own small effect on the first harmonic
 /// cancels in the ratio.
-pub fn servo_describing_function(
+pub fn servo_harmonics(
     (omega_n, zeta): (f64, f64),
     h: f64,
     link: Option<TrunkLink>,
@@ -448,7 +451,7 @@ pub fn servo_describing_function(
     identity: [f64; 3],
     omega: f64,
     amplitude: f64,
-) -> Complex64 {
+) -> (Complex64, Complex64) {
     let l = link.map_or([0.0; 4], |l| [l.omega_m, l.zeta_m, l.share, l.drive]);
     let with = cached(
         [
@@ -474,7 +477,7 @@ pub fn servo_describing_function(
         ],
         || first_harmonic(omega_n, zeta, h, link, &mut [], omega, 1.0, None).0,
     );
-    with / without
+    (with.first / without.first, with.third)
 }
 
 /// Periods compared one by one before the general settling takes over.
@@ -485,7 +488,7 @@ const FAST_SUBHARMONIC: usize = 6;
 const FAST_SETTLED_REL: f64 = 1e-8;
 
 /// Steady-state first harmonic of the servo position with `limits` (none: the linear servo)
-/// over the reference's `amplitude`: [`servo_describing_function`] is its ratio with and
+/// over the reference's `amplitude`: [`servo_harmonics`] is its ratio with and
 /// without the limits; a caller that evaluates many limits at one `(omega, amplitude)` can
 /// compute the linear run once.
 pub fn servo_first_harmonic(
@@ -496,7 +499,9 @@ pub fn servo_first_harmonic(
     omega: f64,
     amplitude: f64,
 ) -> Complex64 {
-    first_harmonic(omega_n, zeta, h, None, limits, omega, amplitude, None).0
+    first_harmonic(omega_n, zeta, h, None, limits, omega, amplitude, None)
+        .0
+        .first
 }
 
 /// Where a describing-function run's periods start: the servo's position and velocity at
@@ -521,7 +526,16 @@ pub fn servo_first_harmonic_from(
     amplitude: f64,
     start: Option<PeriodStart>,
 ) -> (Complex64, PeriodStart) {
-    first_harmonic(omega_n, zeta, h, None, limits, omega, amplitude, start)
+    let (p, end) = first_harmonic(omega_n, zeta, h, None, limits, omega, amplitude, start);
+    (p.first, end)
+}
+
+/// The steady-state first and third harmonics of a servo run over the reference's amplitude
+/// (sin-referenced, the reference's phase zero).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Harmonics {
+    first: Complex64,
+    third: Complex64,
 }
 
 /// [`servo_first_harmonic_from`] of the servo driving `link` (if any): the CoM's first
@@ -537,7 +551,7 @@ fn first_harmonic(
     omega: f64,
     amplitude: f64,
     start: Option<PeriodStart>,
-) -> (Complex64, PeriodStart) {
+) -> (Harmonics, PeriodStart) {
     let period = 2.0 * std::f64::consts::PI / omega;
     let target = h.max((period / 2048.0).min(2.5 * h)).min(max_step(limits));
     let per = ((period / target).ceil() as usize).max(16);
@@ -586,6 +600,7 @@ fn first_harmonic(
     // coefficient at omega over those m periods is their mean. Only the periods since the
     // last jump of the orbit extrapolation (below) are compared.
     let mut history: Vec<Complex64> = Vec::with_capacity(FAST_PERIODS);
+    let mut history3: Vec<Complex64> = Vec::with_capacity(FAST_PERIODS);
     let mut since = 0;
     let mut states: Vec<Vec<f64>> = vec![servo.state()];
     let same = |a: Complex64, b: Complex64| {
@@ -594,21 +609,29 @@ fn first_harmonic(
     for period in 0..FAST_PERIODS {
         // Sin-referenced phasor over one whole period: p = (2j/N) sum y_k e^{-j w t_k}.
         let mut acc = Complex64::new(0.0, 0.0);
+        let mut acc3 = Complex64::new(0.0, 0.0);
         for _ in 0..per {
             e *= rot;
             let x = servo.step(amplitude * e.im, limits).position;
-            acc += x * e.conj();
+            let c = e.conj();
+            acc += x * c;
+            acc3 += x * (c * c * c);
         }
         e /= e.norm();
         history.push(acc * Complex64::new(0.0, 2.0 / per as f64));
+        history3.push(acc3 * Complex64::new(0.0, 2.0 / per as f64));
         let n = history.len();
         for m in 1..=FAST_SUBHARMONIC {
             if n > since + m + 1
                 && same(history[n - 1], history[n - 1 - m])
                 && (m == 1 || same(history[n - 2], history[n - 2 - m]))
             {
-                let mean = history[n - m..].iter().sum::<Complex64>() / m as f64;
-                return (mean / amplitude, end(&servo));
+                let mean = |h: &[Complex64]| h[n - m..].iter().sum::<Complex64>() / m as f64;
+                let p = Harmonics {
+                    first: mean(&history) / amplitude,
+                    third: mean(&history3) / amplitude,
+                };
+                return (p, end(&servo));
             }
         }
         // A saturated servo approaches its orbit slowly (tens of periods). Near the orbit the
@@ -641,8 +664,12 @@ fn first_harmonic(
     // the last twelve periods (a whole number of cycles of 1, 2, 3, 4 or 6 periods), the
     // describing function of a response that wanders.
     let n = history.len();
+    let mean = |h: &[Complex64]| h[n - 12..].iter().sum::<Complex64>() / (12.0 * amplitude);
     (
-        history[n - 12..].iter().sum::<Complex64>() / (12.0 * amplitude),
+        Harmonics {
+            first: mean(&history),
+            third: mean(&history3),
+        },
         end(&servo),
     )
 }
@@ -797,6 +824,18 @@ mod tests {
         amplitude: f64,
         periods: usize,
     ) -> Complex64 {
+        plain_harmonic(kind, value, omega, amplitude, periods, 1)
+    }
+
+    /// The `k`-th harmonic of the plain steady state over the reference's amplitude.
+    fn plain_harmonic(
+        kind: &str,
+        value: f64,
+        omega: f64,
+        amplitude: f64,
+        periods: usize,
+        harmonic: u32,
+    ) -> Complex64 {
         let h: f64 = 1e-3;
         let period = 2.0 * std::f64::consts::PI / omega;
         let per = ((period / h.max((period / 2048.0).min(2.5 * h))).ceil() as usize).max(16);
@@ -809,10 +848,36 @@ mod tests {
             let t = k as f64 * h_df;
             let x = servo.step(amplitude * (omega * t).sin(), &mut l).position;
             if k > (periods - 1) * per {
-                acc += x * Complex64::from_polar(1.0, -omega * t);
+                acc += x * Complex64::from_polar(1.0, -f64::from(harmonic) * omega * t);
             }
         }
         acc * Complex64::new(0.0, 2.0 / per as f64) / amplitude
+    }
+
+    /// The third harmonic returned beside a describing function is the servo position's own,
+    /// from the same periodic run: a plain 400-period run gives the same, and a clamped servo
+    /// distorts by percents while a linear one does not at all.
+    #[test]
+    fn third_harmonic_is_the_plain_steady_states() {
+        for (kind, value, omega, amplitude) in [
+            ("acceleration_saturation", 0.8, 15.0, 0.008),
+            ("acceleration_saturation", 0.2, 6.0, 0.008),
+            ("coulomb_friction", 0.05, 3.0, 0.005),
+        ] {
+            let plain = plain_harmonic(kind, value, omega, amplitude, 400, 3);
+            let third = limit(kind, value, 1e-3).third_harmonic(omega, amplitude);
+            let rel = (third - plain).norm() / plain.norm();
+            assert!(
+                rel < 1e-6,
+                "{kind} {value}: {third} against {plain} ({rel:e})"
+            );
+            assert!(
+                plain.norm() > 1e-3,
+                "{kind} {value}: third harmonic {plain}"
+            );
+        }
+        let (_, none) = servo_harmonics((30.0, 1.0), 1e-3, None, &mut [], [0.0; 3], 6.0, 0.008);
+        assert!(none.norm() < 1e-12, "linear servo: {none}");
     }
 
     /// Deep saturation settles over tens of periods; the orbit extrapolation must land on the
