@@ -5,7 +5,7 @@
 use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions};
 use zmp_validation::campaign::read_campaign;
 use zmp_validation::diagnose::iterate::run_loop;
-use zmp_validation::diagnose::measure::{chi2_total, predict, COMPONENTS};
+use zmp_validation::diagnose::measure::{chi2_parts, chi2_total, components, predict};
 use zmp_validation::diagnose::observe::Observation;
 use zmp_validation::diagnose::DiagnoseOptions;
 use zmp_validation::identify::IdentifyOptions;
@@ -59,15 +59,47 @@ fn main() -> anyhow::Result<()> {
     // Each version's chi-square per residual component (about 1 for a right model; the loop
     // calls a model explained at EXPLAINED_CHI2_PER_COMPONENT or below, with the error rule).
     let obs: Vec<&Observation> = r.observations.iter().collect();
-    let per = |m: &zmp_models::ModelSpec| -> anyhow::Result<f64> {
-        Ok(chi2_total(&obs, &predict(m, &obs)?) / (COMPONENTS * obs.len()) as f64)
+    let per = |m: &zmp_models::ModelSpec| -> anyhow::Result<String> {
+        let preds = predict(m, &obs)?;
+        let [(c1, n1), (c3, n3)] = chi2_parts(&obs, &preds);
+        Ok(format!(
+            "{:.2} (first harmonic and trend {:.2}, third harmonic {:.2} over {} components)",
+            chi2_total(&obs, &preds) / components(&obs) as f64,
+            c1 / n1.max(1) as f64,
+            c3 / n3.max(1) as f64,
+            n3
+        ))
     };
     println!(
-        "chi-square per component: identified {:.2}",
+        "chi-square per component: identified {}",
         per(&r.identification.model)?
     );
     for (added, v) in &r.versions {
-        println!("  {:?}: {:.2}", added, per(&v.spec)?);
+        println!("  {:?}: {}", added, per(&v.spec)?);
+        if std::env::var_os("ZMP_DRAW_THIRD").is_some() {
+            // The records whose third harmonic the version misses most.
+            let preds = predict(&v.spec, &obs)?;
+            let mut rows: Vec<(f64, String)> = Vec::new();
+            for (o, p) in obs.iter().zip(&preds).filter(|(o, _)| o.third_band) {
+                for i in 0..2 {
+                    let pred = o.third(p.g3[i]);
+                    let z = (o.y3[i] - pred).norm() / o.y3_var[i].sqrt();
+                    rows.push((
+                        z,
+                        format!(
+                            "    rec {:3} {:?}->{i} w {:5.2} A {:.3}: y3 {:.2e} at {:6.1} deg, model {:.2e} at {:6.1} deg, sd {:.1e}, |z| {:.1}",
+                            o.index, o.excited, o.omega, o.nominal_amplitude,
+                            o.y3[i].norm(), o.y3[i].arg().to_degrees(),
+                            pred.norm(), pred.arg().to_degrees(), o.y3_var[i].sqrt(), z
+                        ),
+                    ));
+                }
+            }
+            rows.sort_by(|a, b| b.0.total_cmp(&a.0));
+            for (_, row) in rows.iter().take(12) {
+                println!("{row}");
+            }
+        }
     }
     println!("final model:\n{}", r.final_model.to_toml());
     Ok(())

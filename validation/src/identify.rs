@@ -225,6 +225,8 @@ pub struct SteadyComponents {
     /// The campaign's pooled colour factors at this record's frequency and near zero
     /// (1 for white noise).
     pub colour: [(f64, f64); 2],
+    /// The same at three times the record's frequency (the third harmonic's noise).
+    pub colour3: [f64; 2],
     /// Variance factors of the fit: inverse normal matrix at the fundamental's sin and cos
     /// columns, and at the trend column (1/s²).
     pub inv_diag_h1: [f64; 2],
@@ -240,6 +242,12 @@ impl SteadyComponents {
     /// Variance of `trend[i]`, (m/s)².
     pub fn trend_var(&self, i: usize) -> f64 {
         self.residual_var[i] * self.colour[i].1 * self.inv_diag_trend
+    }
+
+    /// Variance of the real (and of the imaginary) part of `y3[i]`, m²: `2/n` of the noise
+    /// at three times the frequency (the harmonic columns are orthogonal over whole periods).
+    pub fn y3_var(&self, i: usize) -> f64 {
+        self.residual_var[i] * self.colour3[i] * 2.0 / self.samples.max(1) as f64
     }
 }
 
@@ -600,6 +608,7 @@ pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> Rec
                 .collect()
         }),
         colour: [(1.0, 1.0); 2],
+        colour3: [1.0; 2],
         inv_diag_h1: hf.inv_diag_h1,
         inv_diag_trend: hf.inv_diag_trend,
     };
@@ -678,13 +687,16 @@ pub fn pool_colour(records: &mut [RecordFit], relative_floor: f64) {
                     .map_or(f64::NAN, |c| c.zero_band_omega)
             })
             .collect();
+        let q_third: Vec<f64> = q_near.iter().map(|w| 3.0 * w).collect();
         let f_near = pool_ratios(&samples, &q_near);
         let f_zero = pool_ratios(&samples, &q_zero);
+        let f_third = pool_ratios(&samples, &q_third);
         for (k, r) in records.iter_mut().enumerate() {
             let Some(c) = r.components.as_mut() else {
                 continue;
             };
             c.colour[i] = (f_near[k], f_zero[k]);
+            c.colour3[i] = f_third[k];
             if r.excluded.is_none() || r.excluded.as_deref() == Some(reason::SATURATED) {
                 let amp2 = c.u1.norm_sqr().max(1e-300);
                 let u_var = c.input_residual_var * 0.5 * (c.inv_diag_h1[0] + c.inv_diag_h1[1]);

@@ -9,7 +9,7 @@
 mod indep_loop;
 
 use zmp_validation::diagnose::engine::EXPLAINED_CHI2_PER_COMPONENT;
-use zmp_validation::diagnose::measure::{aggregate, chi2_total, predict, score, COMPONENTS};
+use zmp_validation::diagnose::measure::{aggregate, chi2_total, components, predict, score};
 use zmp_validation::diagnose::observe::Observation;
 use zmp_validation::diagnose::run::explains;
 
@@ -19,10 +19,7 @@ fn misfit(model: &zmp_models::ModelSpec, obs: &[Observation]) -> (f64, f64) {
     let p = predict(model, &obs).unwrap();
     let scores: Vec<_> = obs.iter().zip(&p).map(|(o, p)| score(o, p)).collect();
     let (e, f) = aggregate(&scores);
-    (
-        e / f,
-        chi2_total(&obs, &p) / (COMPONENTS * obs.len()) as f64,
-    )
+    (e / f, chi2_total(&obs, &p) / components(&obs) as f64)
 }
 
 #[test]

@@ -62,7 +62,7 @@ pub fn describing_function(b: f64, a: f64) -> Complex64 {
 /// b/a)`), then follows `a sin(theta) + b`.
 pub fn harmonic(b: f64, a: f64, k: u32) -> Complex64 {
     let zero = Complex64::new(0.0, 0.0);
-    if a <= b || k % 2 == 0 {
+    if a <= b || k.is_multiple_of(2) {
         return zero;
     }
     if b <= 0.0 {

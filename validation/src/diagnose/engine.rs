@@ -77,6 +77,8 @@ pub struct Scored {
     /// Per record (observation order): held-out score and chi-square.
     pub scores: Vec<RecordScore>,
     pub chi2s: Vec<f64>,
+    /// Per record: residual components (its chi-square's expectation for a right model).
+    pub dofs: Vec<f64>,
     /// Fitted on all records.
     pub fitted: Fitted,
 }
@@ -386,6 +388,7 @@ pub fn cross_validate(name: &str, fitted: Fitted, obs: &[&Observation]) -> Score
         chi2: total,
         scores,
         chi2s,
+        dofs: obs.iter().map(|o| o.components() as f64).collect(),
         fitted,
     }
 }

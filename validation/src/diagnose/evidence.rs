@@ -625,6 +625,8 @@ mod tests {
             y1: [Complex64::new(0.0, 0.003); 2],
             y1_var: [1e-10; 2],
             y3: [Complex64::new(0.0, 0.0); 2],
+            y3_var: [1e-12; 2],
+            third_band: false,
             slope: [0.0; 2],
             slope_var: [1e-12; 2],
             noise_std: [1e-4; 2],
@@ -661,6 +663,8 @@ mod tests {
             y1: [g * amp, Complex64::new(0.0, 0.0)],
             y1_var: [var * amp * amp, 1e-12],
             y3: [Complex64::new(0.0, 0.0); 2],
+            y3_var: [1e-12; 2],
+            third_band: false,
             slope: [0.0; 2],
             slope_var: [1e-12; 2],
             noise_std: [1e-4; 2],
@@ -668,6 +672,7 @@ mod tests {
         };
         let pred = Prediction {
             g: [Complex64::new(1.0, 0.0), Complex64::new(0.0, 0.0)],
+            g3: [Complex64::new(0.0, 0.0); 2],
             slope: [0.0; 2],
         };
         let campaign = |small: Complex64, rel_sd: f64| -> Option<AmplitudeDependence> {
@@ -720,6 +725,7 @@ mod tests {
                 } else {
                     pred.g
                 },
+                g3: [Complex64::new(0.0, 0.0); 2],
                 slope: [0.0; 2],
             })
             .collect();

@@ -6,7 +6,7 @@
 use super::augment::{version_from_diagnosis, Augmented};
 use super::candidates::trunk_in_servo;
 use super::engine::{self, evaluate};
-use super::measure::{aggregate, chi2_total, predict, score, Prediction, COMPONENTS};
+use super::measure::{aggregate, chi2_total, components, predict, score, Prediction};
 use super::observe::Observation;
 use super::run::{diagnose_observations, explains, observations_of, DiagnoseError, Diagnosis};
 use super::select::{CHI2_MIN, MAX_EFFECTS};
@@ -203,7 +203,7 @@ fn trunk_law(
     };
     let (chi_now, err_now) = total(&now);
     let (chi_alt, err_alt) = total(&predict(&fitted.spec, obs)?);
-    let excess = (chi_now - (COMPONENTS * obs.len()) as f64).max(0.0);
+    let excess = (chi_now - components(obs) as f64).max(0.0);
     if !(chi_alt < chi_now - CHI2_MIN.max(0.1 * excess) && err_alt < err_now) {
         return Ok(None);
     }

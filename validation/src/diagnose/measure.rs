@@ -19,6 +19,9 @@ pub const EVAL_STEP: f64 = 0.001;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Prediction {
     pub g: [Complex64; 2],
+    /// Third harmonic of each output over the input's amplitude, for an input of phase zero
+    /// (see [`Observation::third`]); zero for a linear model.
+    pub g3: [Complex64; 2],
     pub slope: [f64; 2],
 }
 
@@ -78,6 +81,7 @@ pub fn predict(
     let mut out = vec![
         Prediction {
             g: [Complex64::new(0.0, 0.0); 2],
+            g3: [Complex64::new(0.0, 0.0); 2],
             slope: [0.0; 2]
         };
         obs.len()
@@ -110,16 +114,21 @@ fn predict_serial(
         plant.set_operating_point(o.operating_point);
         let j = o.excited.index();
         let mut g = [Complex64::new(0.0, 0.0); 2];
+        let mut g3 = [Complex64::new(0.0, 0.0); 2];
         if nonlinear {
-            for (i, gi) in g.iter_mut().enumerate() {
+            for i in 0..2 {
                 let ch = Channel::new(Axis::from_index(i).expect("0 or 1"), o.excited);
-                *gi = plant.describing_response(ch, o.omega, o.nominal_amplitude);
+                (g[i], g3[i]) = plant.describing_harmonics(ch, o.omega, o.nominal_amplitude);
             }
         } else {
             let fr = plant.frequency_response(o.omega);
             g = [fr[0][j], fr[1][j]];
         }
-        out.push(Prediction { g, slope: rates });
+        out.push(Prediction {
+            g,
+            g3,
+            slope: rates,
+        });
     }
     Ok(out)
 }
@@ -179,31 +188,70 @@ pub fn residuals(o: &Observation, p: &Prediction, out: &mut Vec<f64>) {
 /// describe (sensor calibration, sampling, the model's own numerics).
 pub const REL_FLOOR: f64 = 3e-4;
 
-/// Residual components of one record per record: the real and imaginary first-harmonic
-/// misfit and the trend misfit of each output.
-pub const COMPONENTS: usize = 6;
+/// Residual components of one record: the real and imaginary first-harmonic misfit, the trend
+/// misfit and the real and imaginary third-harmonic misfit of each output (the last two zero
+/// outside the third-harmonic band, see [`Observation::third_band`]).
+pub const COMPONENTS: usize = 10;
+
+/// Residual components the observations contribute: the chi-square of a right model is about
+/// this.
+pub fn components(obs: &[&Observation]) -> usize {
+    obs.iter().map(|o| o.components()).sum()
+}
 
 /// Noise-weighted residuals of one record: each component of the misfit over its own
-/// standard deviation (first harmonic: the measured phasor's noise, coloured noise included,
-/// with [`REL_FLOOR`]; trend: the fitted trend's). Their sum of squares is the record's
-/// chi-square, about [`COMPONENTS`] for a model that is right.
+/// standard deviation (first and third harmonic: the measured phasor's noise at its
+/// frequency, coloured noise included, with [`REL_FLOOR`] of the first harmonic; trend: the
+/// fitted trend's). Their sum of squares is the record's chi-square, about [`COMPONENTS`] for
+/// a model that is right. The third harmonic is what tells a distortion (friction, play, a
+/// clamp) from a linear effect of the same first-harmonic shape.
 pub fn whitened(o: &Observation, p: &Prediction, out: &mut Vec<f64>) {
     for i in 0..2 {
         let d = o.y1[i] - p.g[i] * o.u1;
-        let s1 = (o.y1_var[i] + (REL_FLOOR * o.y1[i].norm()).powi(2))
-            .sqrt()
-            .max(1e-300);
+        let floor = (REL_FLOOR * o.y1[i].norm()).powi(2);
+        let s1 = (o.y1_var[i] + floor).sqrt().max(1e-300);
         let s2 = o.slope_var[i].sqrt().max(1e-300);
+        let d3 = if o.third_band {
+            o.y3[i] - o.third(p.g3[i])
+        } else {
+            Complex64::new(0.0, 0.0)
+        };
+        let s3 = (o.y3_var[i] + floor).sqrt().max(1e-300);
         out.push(d.re / s1);
         out.push(d.im / s1);
         out.push((o.slope[i] - p.slope[i]) / s2);
+        out.push(d3.re / s3);
+        out.push(d3.im / s3);
     }
 }
 
 /// The chi-square of records against their predictions: [`chi2`] summed (about
-/// [`COMPONENTS`] per record for a model that is right).
+/// [`components`] for a model that is right).
 pub fn chi2_total(obs: &[&Observation], preds: &[Prediction]) -> f64 {
     obs.iter().zip(preds).map(|(o, p)| chi2(o, p)).sum()
+}
+
+/// The chi-square of records against their predictions in two parts, each with its count of
+/// components: first harmonic and trend, and the third harmonic (where compared). A misfit of
+/// one part is judged against that part's own count, so well-predicted third harmonics cannot
+/// dilute a first-harmonic misfit (nor the other way round).
+pub fn chi2_parts(obs: &[&Observation], preds: &[Prediction]) -> [(f64, usize); 2] {
+    let mut parts = [(0.0, 0), (0.0, 0)];
+    let mut r = Vec::with_capacity(COMPONENTS);
+    for (o, p) in obs.iter().zip(preds) {
+        r.clear();
+        whitened(o, p, &mut r);
+        for (k, v) in r.iter().enumerate() {
+            let third = k % 5 >= 3;
+            if third && !o.third_band {
+                continue;
+            }
+            let part = &mut parts[usize::from(third)];
+            part.0 += v * v;
+            part.1 += 1;
+        }
+    }
+    parts
 }
 
 /// The chi-square of one record against a prediction (see [`whitened`]).

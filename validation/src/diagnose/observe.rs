@@ -33,6 +33,13 @@ pub struct Observation {
     pub y1_var: [f64; 2],
     /// Third-harmonic phasors of the outputs, m.
     pub y3: [Complex64; 2],
+    /// Variance of the real (= imaginary) part of each `y3`, m² (coloured noise included).
+    pub y3_var: [f64; 2],
+    /// Whether the third harmonic is compared with the model: three times the frequency lies
+    /// within the campaign's excitation band, where the model's linear part is measured (above
+    /// it a third harmonic would test an extrapolation of the fitted low-pass, not the
+    /// distortion). Set over the campaign by [`mark_third_band`].
+    pub third_band: bool,
     /// Linear trend of each output, m/s, and its variance.
     pub slope: [f64; 2],
     pub slope_var: [f64; 2],
@@ -43,6 +50,27 @@ pub struct Observation {
 }
 
 impl Observation {
+    /// The third harmonic of a response whose third harmonic is `g3` times the amplitude for
+    /// an input of phase zero, for this record's input: the phase turns by three times the
+    /// input's.
+    pub fn third(&self, g3: Complex64) -> Complex64 {
+        let a = self.u1.norm();
+        if a == 0.0 {
+            return Complex64::new(0.0, 0.0);
+        }
+        let p = self.u1 / a;
+        g3 * a * p * p * p
+    }
+
+    /// Residual components this record contributes (see `measure::whitened`).
+    pub fn components(&self) -> usize {
+        if self.third_band {
+            10
+        } else {
+            6
+        }
+    }
+
     /// Measured frequency response of output `i` from the excited input.
     pub fn g(&self, i: usize) -> Complex64 {
         self.y1[i] / self.u1
@@ -74,6 +102,8 @@ pub fn observe(fit: &RecordFit) -> Option<Observation> {
         y1: c.y1,
         y1_var: [c.y1_var(0), c.y1_var(1)],
         y3: c.y3,
+        y3_var: [c.y3_var(0), c.y3_var(1)],
+        third_band: false,
         slope: c.trend,
         slope_var: [c.trend_var(0), c.trend_var(1)],
         noise_std: [c.residual_var[0].sqrt(), c.residual_var[1].sqrt()],
@@ -81,4 +111,13 @@ pub fn observe(fit: &RecordFit) -> Option<Observation> {
     };
     (obs.u1.norm() > 0.0 && obs.y1.iter().all(|y| y.re.is_finite() && y.im.is_finite()))
         .then_some(obs)
+}
+
+/// Marks the observations whose third harmonic lies within the campaign's excitation band
+/// (three times their frequency at most the highest excited frequency).
+pub fn mark_third_band(obs: &mut [Observation]) {
+    let top = obs.iter().map(|o| o.omega).fold(0.0f64, f64::max);
+    for o in obs.iter_mut() {
+        o.third_band = 3.0 * o.omega <= top * (1.0 + 1e-9);
+    }
 }

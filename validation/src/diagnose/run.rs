@@ -9,7 +9,7 @@ use super::engine::{
     EXPLAINED_RATIO,
 };
 use super::evidence::sentence;
-use super::measure::{aggregate, chi2_total, predict, score, Prediction, COMPONENTS};
+use super::measure::{aggregate, chi2_parts, predict, score, Prediction};
 use super::observe::{observe, Observation};
 use super::select::{gain, search};
 use crate::campaign::Campaign;
@@ -149,6 +149,7 @@ pub fn observations_of(fits: &[RecordFit]) -> (Vec<Observation>, Vec<(usize, Str
             },
         }
     }
+    super::observe::mark_third_band(&mut obs);
     (obs, skipped)
 }
 
@@ -284,13 +285,16 @@ fn significant_cells(c: Vec<Cell>) -> Vec<Cell> {
 }
 
 /// Whether `preds` explain the observations: error within [`EXPLAINED_RATIO`] of the noise
-/// floor, chi-square within [`EXPLAINED_CHI2_PER_COMPONENT`] per residual component, and no
+/// floor, chi-square within [`EXPLAINED_CHI2_PER_COMPONENT`] per residual component (the first
+/// harmonic and trend, and the third harmonic, each on its own: see [`chi2_parts`]), and no
 /// cell significantly above its floor.
 pub fn explains(obs: &[&Observation], preds: &[Prediction]) -> bool {
     let scores: Vec<_> = obs.iter().zip(preds).map(|(o, p)| score(o, p)).collect();
     let (e, f) = aggregate(&scores);
     e <= EXPLAINED_RATIO * f
-        && chi2_total(obs, preds) <= EXPLAINED_CHI2_PER_COMPONENT * (COMPONENTS * obs.len()) as f64
+        && chi2_parts(obs, preds)
+            .iter()
+            .all(|&(chi2, n)| chi2 <= EXPLAINED_CHI2_PER_COMPONENT * n as f64)
         && !cells(obs, preds).iter().any(|c| c.significant)
 }
 

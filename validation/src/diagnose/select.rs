@@ -22,7 +22,7 @@
 use super::candidates::CATALOGUE;
 use super::engine::{addable, score_candidate, score_candidates, Scored};
 use super::evidence::{amplitude_dependence, amplitude_dependence_shown};
-use super::measure::{aggregate, predict, COMPONENTS};
+use super::measure::{aggregate, predict};
 use super::observe::Observation;
 use zmp_models::ModelSpec;
 
@@ -73,15 +73,14 @@ impl Gain {
 
 /// The gain of `child` over `parent` (both scored on the same held-out records).
 pub fn gain(parent: &Scored, child: &Scored) -> Gain {
-    let nu = COMPONENTS as f64;
+    let nu = |k: usize| parent.dofs[k];
     let delta_chi2 = parent.chi2 - child.chi2;
     // A record's chi-square has standard deviation sqrt(2 nu) under noise alone.
-    let noise = 3.0 * (2.0 * nu).sqrt();
     let acting: Vec<usize> = (0..parent.chi2s.len())
-        .filter(|&k| (parent.chi2s[k] - child.chi2s[k]).abs() > noise)
+        .filter(|&k| (parent.chi2s[k] - child.chi2s[k]).abs() > 3.0 * (2.0 * nu(k)).sqrt())
         .collect();
     let excess = |ix: &mut dyn Iterator<Item = usize>| -> f64 {
-        ix.map(|k| (parent.chi2s[k] - nu).max(0.0)).sum()
+        ix.map(|k| (parent.chi2s[k] - nu(k)).max(0.0)).sum()
     };
     let total_excess = excess(&mut (0..parent.chi2s.len()));
     let local_excess = excess(&mut acting.iter().copied());
