@@ -58,8 +58,12 @@ use zmp_validation::par::parallel_map;
 /// loop called explained at 1.2x the floor with a chi-square of 7 per component, which led to
 /// the chi-square condition for "explained"); from 1000000 (run once on the code of f1f3fe7:
 /// singles 17/21, saturation and coupling 5/6, pairs 9/12, clean 10/10, outside 4/8, closed
-/// 41/52, false effect 12/52).
-const HELD_OUT_FIRST_SEED: u64 = 1_010_000;
+/// 41/52, false effect 12/52; then examined: 1000011, a friction left unfound, whose odd
+/// harmonics no model predicted, which led to the third harmonic in the chi-square); from
+/// 1010000 (run once on the code of 0c42746, the third harmonic in: singles 17/21,
+/// saturation and coupling 5/6, pairs 10/12, clean 10/10, outside 4/8, closed 44/52, false
+/// effect 9/52).
+const HELD_OUT_FIRST_SEED: u64 = 1_020_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
