@@ -191,6 +191,15 @@ pub trait Effect: Send + Sync + fmt::Debug {
         Complex64::new(0.0, 0.0)
     }
 
+    /// [`Effect::frequency_response`] and [`Effect::third_harmonic`] together (servo effects
+    /// take both from one describing-function run).
+    fn harmonics(&self, omega_rad_s: f64, amplitude: f64) -> (Complex64, Complex64) {
+        (
+            self.frequency_response(omega_rad_s, amplitude),
+            self.third_harmonic(omega_rad_s, amplitude),
+        )
+    }
+
     /// Puts the effect at rest for the constant input `u`; returns its output at rest.
     fn reset(&mut self, u: f64) -> f64;
 

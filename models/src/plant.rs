@@ -400,7 +400,8 @@ impl Plant {
     pub fn frequency_response(&self, omega: f64) -> [[Complex64; 2]; 2] {
         let mut g = [[Complex64::new(0.0, 0.0); 2]; 2];
         for ch in Channel::ALL {
-            g[ch.output.index()][ch.input.index()] = self.channel_response(ch, omega, None).0;
+            g[ch.output.index()][ch.input.index()] =
+                self.channel_response(ch, omega, None, false).0;
         }
         g
     }
@@ -410,7 +411,7 @@ impl Plant {
     /// The amplitude is carried along the command chain; the servo effects' describing
     /// functions multiply.
     pub fn describing_response(&self, ch: Channel, omega: f64, amplitude: f64) -> Complex64 {
-        self.channel_response(ch, omega, Some(amplitude)).0
+        self.channel_response(ch, omega, Some(amplitude), false).0
     }
 
     /// [`Plant::describing_response`] and the channel's third harmonic over the reference's
@@ -426,39 +427,44 @@ impl Plant {
         omega: f64,
         amplitude: f64,
     ) -> (Complex64, Complex64) {
-        self.channel_response(ch, omega, Some(amplitude))
+        self.channel_response(ch, omega, Some(amplitude), true)
     }
 
-    /// The first-harmonic response of a channel and, with an amplitude, its third harmonic.
+    /// The first-harmonic response of a channel and, with an amplitude and `third`, its third
+    /// harmonic (zero otherwise: the chain at 3 omega is evaluated only when asked for).
     fn channel_response(
         &self,
         ch: Channel,
         omega: f64,
         amplitude: Option<f64>,
+        third: bool,
     ) -> (Complex64, Complex64) {
         let (i, j) = (ch.output.index(), ch.input.index());
         let zero = Complex64::new(0.0, 0.0);
+        let third = third && amplitude.is_some_and(|a| a > 0.0);
         let mut g = Complex64::new(1.0, 0.0);
         let mut g3 = zero;
         let w3 = 3.0 * omega;
         let a0 = amplitude.unwrap_or(0.0);
         let mut amp = a0;
-        // An effect's own third harmonic, for its input `amp sin(omega t + arg g)`, over the
-        // reference's amplitude.
-        let own = |e: &dyn Effect, g: Complex64, amp: f64| {
-            if e.info().linear || a0 <= 0.0 || g.norm() == 0.0 {
+        // An effect's own third harmonic `h3` (for its input `amp sin(omega t)`), for its input
+        // `amp sin(omega t + arg g)`, over the reference's amplitude.
+        let own = |h3: Complex64, g: Complex64, amp: f64| {
+            if g.norm() == 0.0 {
                 return zero;
             }
             let p = g / g.norm();
-            e.third_harmonic(omega, amp) * (amp / a0) * p * p * p
+            h3 * (amp / a0) * p * p * p
         };
         // The amplitude each nonlinear effect sees is the reference's after the command
         // effects before it.
         for e in &self.command[j] {
-            if e.info().linear || amplitude.is_some() {
-                if amplitude.is_some() {
-                    g3 = g3 * e.frequency_response(w3, amp) + own(e.as_ref(), g, amp);
-                }
+            if third {
+                let (n, h3) = e.harmonics(omega, amp);
+                g3 = g3 * e.frequency_response(w3, amp) + own(h3, g, amp);
+                g *= n;
+                amp *= n.norm();
+            } else if e.info().linear || amplitude.is_some() {
                 let n = e.frequency_response(omega, amp);
                 g *= n;
                 amp *= n.norm();
@@ -468,8 +474,13 @@ impl Plant {
         if amplitude.is_some() {
             let reference = g;
             for e in &self.servo_limits[j] {
-                servo3 += own(e.as_ref(), reference, amp);
-                g *= e.frequency_response(omega, amp);
+                if third {
+                    let (n, h3) = e.harmonics(omega, amp);
+                    servo3 += own(h3, reference, amp);
+                    g *= n;
+                } else {
+                    g *= e.frequency_response(omega, amp);
+                }
             }
         }
         // The linked loop's linear response is the flexible trunk's filter times `H`; the
@@ -477,18 +488,19 @@ impl Plant {
         // are the servo's own (the CoM's with a linked trunk).
         for e in &self.in_loop[j] {
             g *= e.frequency_response(omega, amp);
-            g3 *= e.frequency_response(w3, amp);
+            if third {
+                g3 *= e.frequency_response(w3, amp);
+            }
         }
         g *= self.lowpass[j].tf().freq(omega);
-        if amplitude.is_some() {
-            g3 = g3 * self.lowpass[j].tf().freq(w3) + servo3;
-        }
         let pendulum = |w: f64| Complex64::new(self.a_lin[i][j] + self.b[i][j] * w * w, 0.0);
         g *= pendulum(omega);
-        g3 *= pendulum(w3);
+        if third {
+            g3 = (g3 * self.lowpass[j].tf().freq(w3) + servo3) * pendulum(w3);
+        }
         for e in self.channel[i][j].iter().chain(&self.sensor[i]) {
             g *= e.frequency_response(omega, amp);
-            if amplitude.is_some() {
+            if third {
                 g3 *= e.frequency_response(w3, amp);
             }
         }

@@ -57,7 +57,7 @@ pub struct AccelerationSaturation {
 
 impl AccelerationSaturation {
     /// The describing function and the servo's third harmonic (see [`servo_harmonics`]).
-    fn harmonics(&self, omega: f64, amplitude: f64) -> (Complex64, Complex64) {
+    fn servo_harmonics(&self, omega: f64, amplitude: f64) -> (Complex64, Complex64) {
         // The linear servo's steady force (demand plus passive damping) for the joint's
         // response X_J (H on a rigid trunk): while its amplitude stays below the limit the
         // periodic state is the linear one.
@@ -86,10 +86,13 @@ impl Effect for AccelerationSaturation {
         &INFO
     }
     fn frequency_response(&self, omega: f64, amplitude: f64) -> Complex64 {
-        self.harmonics(omega, amplitude).0
+        self.servo_harmonics(omega, amplitude).0
     }
     fn third_harmonic(&self, omega: f64, amplitude: f64) -> Complex64 {
-        self.harmonics(omega, amplitude).1
+        self.servo_harmonics(omega, amplitude).1
+    }
+    fn harmonics(&self, omega: f64, amplitude: f64) -> (Complex64, Complex64) {
+        self.servo_harmonics(omega, amplitude)
     }
     fn reset(&mut self, u: f64) -> f64 {
         u

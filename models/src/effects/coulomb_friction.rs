@@ -71,7 +71,7 @@ impl CoulombFriction {
 
 impl CoulombFriction {
     /// The describing function and the servo's third harmonic (see [`servo_harmonics`]).
-    fn harmonics(&self, omega: f64, amplitude: f64) -> (Complex64, Complex64) {
+    fn servo_harmonics(&self, omega: f64, amplitude: f64) -> (Complex64, Complex64) {
         let mut limits: [Box<dyn Effect>; 1] = [Box::new(self.clone())];
         servo_harmonics(
             self.servo,
@@ -90,10 +90,13 @@ impl Effect for CoulombFriction {
         &INFO
     }
     fn frequency_response(&self, omega: f64, amplitude: f64) -> Complex64 {
-        self.harmonics(omega, amplitude).0
+        self.servo_harmonics(omega, amplitude).0
     }
     fn third_harmonic(&self, omega: f64, amplitude: f64) -> Complex64 {
-        self.harmonics(omega, amplitude).1
+        self.servo_harmonics(omega, amplitude).1
+    }
+    fn harmonics(&self, omega: f64, amplitude: f64) -> (Complex64, Complex64) {
+        self.servo_harmonics(omega, amplitude)
     }
     fn reset(&mut self, u: f64) -> f64 {
         u

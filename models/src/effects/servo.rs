@@ -564,6 +564,7 @@ fn first_harmonic(
     let n_settle = (((8.0 * slowest).max(0.5 * period)) / h_df).ceil() as usize;
     // The reference by rotation: e^{j w k h}, renormalised once per period.
     let rot = Complex64::from_polar(1.0, omega * h_df);
+    let rot3 = Complex64::from_polar(1.0, 3.0 * omega * h_df);
     let mut e = Complex64::new(1.0, 0.0);
     let start = if link.is_some() { None } else { start };
     match start {
@@ -610,12 +611,14 @@ fn first_harmonic(
         // Sin-referenced phasor over one whole period: p = (2j/N) sum y_k e^{-j w t_k}.
         let mut acc = Complex64::new(0.0, 0.0);
         let mut acc3 = Complex64::new(0.0, 0.0);
+        // The third harmonic's rotation by its own recurrence, restarted from e^3 each period.
+        let mut e3 = e * e * e;
         for _ in 0..per {
             e *= rot;
+            e3 *= rot3;
             let x = servo.step(amplitude * e.im, limits).position;
-            let c = e.conj();
-            acc += x * c;
-            acc3 += x * (c * c * c);
+            acc += x * e.conj();
+            acc3 += x * e3.conj();
         }
         e /= e.norm();
         history.push(acc * Complex64::new(0.0, 2.0 / per as f64));

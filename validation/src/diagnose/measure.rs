@@ -118,7 +118,12 @@ fn predict_serial(
         if nonlinear {
             for i in 0..2 {
                 let ch = Channel::new(Axis::from_index(i).expect("0 or 1"), o.excited);
-                (g[i], g3[i]) = plant.describing_harmonics(ch, o.omega, o.nominal_amplitude);
+                // The third harmonic only where it is compared.
+                if o.third_band {
+                    (g[i], g3[i]) = plant.describing_harmonics(ch, o.omega, o.nominal_amplitude);
+                } else {
+                    g[i] = plant.describing_response(ch, o.omega, o.nominal_amplitude);
+                }
             }
         } else {
             let fr = plant.frequency_response(o.omega);
@@ -188,10 +193,13 @@ pub fn residuals(o: &Observation, p: &Prediction, out: &mut Vec<f64>) {
 /// describe (sensor calibration, sampling, the model's own numerics).
 pub const REL_FLOOR: f64 = 3e-4;
 
-/// Residual components of one record: the real and imaginary first-harmonic misfit, the trend
-/// misfit and the real and imaginary third-harmonic misfit of each output (the last two zero
-/// outside the third-harmonic band, see [`Observation::third_band`]).
+/// Residual components of one record at most: the real and imaginary first-harmonic misfit,
+/// the trend misfit and (within the third-harmonic band, see [`Observation::third_band`]) the
+/// real and imaginary third-harmonic misfit of each output.
 pub const COMPONENTS: usize = 10;
+
+/// Of which the first-harmonic and trend components, which every record has.
+pub const FIRST_COMPONENTS: usize = 6;
 
 /// Residual components the observations contribute: the chi-square of a right model is about
 /// this.
@@ -202,26 +210,29 @@ pub fn components(obs: &[&Observation]) -> usize {
 /// Noise-weighted residuals of one record: each component of the misfit over its own
 /// standard deviation (first and third harmonic: the measured phasor's noise at its
 /// frequency, coloured noise included, with [`REL_FLOOR`] of the first harmonic; trend: the
-/// fitted trend's). Their sum of squares is the record's chi-square, about [`COMPONENTS`] for
-/// a model that is right. The third harmonic is what tells a distortion (friction, play, a
-/// clamp) from a linear effect of the same first-harmonic shape.
+/// fitted trend's). Their sum of squares is the record's chi-square, about
+/// [`Observation::components`] for a model that is right. First the six first-harmonic and
+/// trend components (per output: real, imaginary, trend), then, where the third harmonic is
+/// compared ([`Observation::third_band`]), its four (per output: real, imaginary). The third
+/// harmonic is what tells a distortion (friction, play, a clamp) from a linear effect of the
+/// same first-harmonic shape.
 pub fn whitened(o: &Observation, p: &Prediction, out: &mut Vec<f64>) {
+    let floor = |i: usize| (REL_FLOOR * o.y1[i].norm()).powi(2);
     for i in 0..2 {
         let d = o.y1[i] - p.g[i] * o.u1;
-        let floor = (REL_FLOOR * o.y1[i].norm()).powi(2);
-        let s1 = (o.y1_var[i] + floor).sqrt().max(1e-300);
+        let s1 = (o.y1_var[i] + floor(i)).sqrt().max(1e-300);
         let s2 = o.slope_var[i].sqrt().max(1e-300);
-        let d3 = if o.third_band {
-            o.y3[i] - o.third(p.g3[i])
-        } else {
-            Complex64::new(0.0, 0.0)
-        };
-        let s3 = (o.y3_var[i] + floor).sqrt().max(1e-300);
         out.push(d.re / s1);
         out.push(d.im / s1);
         out.push((o.slope[i] - p.slope[i]) / s2);
-        out.push(d3.re / s3);
-        out.push(d3.im / s3);
+    }
+    if o.third_band {
+        for i in 0..2 {
+            let d3 = o.y3[i] - o.third(p.g3[i]);
+            let s3 = (o.y3_var[i] + floor(i)).sqrt().max(1e-300);
+            out.push(d3.re / s3);
+            out.push(d3.im / s3);
+        }
     }
 }
 
@@ -241,14 +252,10 @@ pub fn chi2_parts(obs: &[&Observation], preds: &[Prediction]) -> [(f64, usize); 
     for (o, p) in obs.iter().zip(preds) {
         r.clear();
         whitened(o, p, &mut r);
-        for (k, v) in r.iter().enumerate() {
-            let third = k % 5 >= 3;
-            if third && !o.third_band {
-                continue;
-            }
-            let part = &mut parts[usize::from(third)];
-            part.0 += v * v;
-            part.1 += 1;
+        let (first, third) = r.split_at(FIRST_COMPONENTS);
+        for (part, v) in parts.iter_mut().zip([first, third]) {
+            part.0 += v.iter().map(|x| x * x).sum::<f64>();
+            part.1 += v.len();
         }
     }
     parts

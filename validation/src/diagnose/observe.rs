@@ -65,9 +65,9 @@ impl Observation {
     /// Residual components this record contributes (see `measure::whitened`).
     pub fn components(&self) -> usize {
         if self.third_band {
-            10
+            crate::diagnose::measure::COMPONENTS
         } else {
-            6
+            crate::diagnose::measure::FIRST_COMPONENTS
         }
     }
 
