@@ -6,10 +6,14 @@
 //! low-pass and the limit moved) explains the data. Before the loop adopted that refit it
 //! stopped there and reported `unexplained`.
 //!
-//! The second test: a refit that does not explain the data but removes most of its error is
-//! taken too (seed 960020 of the spent held-out range, Coulomb friction in both joints: the
-//! identification set the acceleration limit at 0.51 m/s2 against the robot's 1.31, the
-//! model scored 19.3x its floor, the refit 1.3x, and the loop stopped at 19.3x).
+//! The second draw: seed 960020 of the spent held-out range, Coulomb friction in both joints:
+//! the identification set the acceleration limit at 0.51 m/s2 against the robot's 1.31, the
+//! model scored 19.3x its floor, the refit 1.3x, and the loop (before it took such refits)
+//! stopped at 19.3x. From then until the third harmonic entered the chi-square (0c42746) the
+//! loop's first version there was that refit, which does not explain the data but removes most
+//! of its error; now the friction's own odd harmonics make it win the first step outright, so
+//! the draw tests that the loop gets from 19.3x to within 2x either way, naming the friction,
+//! with the refit still reported by the first diagnosis.
 
 #[path = "support/indep_loop.rs"]
 mod indep_loop;
@@ -60,7 +64,7 @@ fn the_loop_adopts_the_refitted_structure_when_it_explains_the_data() {
 }
 
 #[test]
-fn the_loop_takes_a_refit_that_removes_most_of_the_error() {
+fn the_loop_gets_a_badly_identified_friction_robot_near_its_floor() {
     let r = loop_on(960_020, "single:coulomb_friction");
     let floor = r.noise_floor;
     assert!(
@@ -68,21 +72,30 @@ fn the_loop_takes_a_refit_that_removes_most_of_the_error() {
         "identified at {:.2}x the floor: this draw no longer tests the refit",
         r.identified_error / floor
     );
-    let refits = refit_versions(&r);
-    assert_eq!(refits.len(), 1, "versions: {}", r.versions.len());
-    assert!(refits[0].error_after < 0.2 * refits[0].error_before);
+    // The hidden friction is named (the loop's first version, or after a refit).
+    assert_eq!(
+        r.found,
+        vec!["coulomb_friction".to_string()],
+        "{:?}",
+        r.found
+    );
+    let first = &r.versions[0].1;
+    assert!(
+        first.error_after < 0.2 * first.error_before,
+        "first version: {:.4} -> {:.4}",
+        first.error_before,
+        first.error_after
+    );
     // The loop's last model is within 2x the floor (it ended at 19.3x).
     assert!(
         r.final_error < 2.0 * floor,
         "final error {:.2}x the floor",
         r.final_error / floor
     );
-    // The first diagnosis says what the refit does.
+    // The first diagnosis names the friction, judged against the structure refitted first.
     let first = &r.diagnoses[0];
     assert!(
-        first.findings.iter().any(|f| f
-            .evidence
-            .contains("own structure with its parameters refitted")),
+        first.findings[0].evidence.contains("Coulomb friction"),
         "{:?}",
         first
             .findings
