@@ -542,7 +542,9 @@ pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> Rec
     let Some(hf) = sine::harmonic_fit_trend(sig, w, dt, k_max) else {
         return excluded(rec, index, reason::BAD_DATA);
     };
-    let local = noise::local_noise(sig, &hf, w, dt);
+    // The outputs' residual colour (the input's is not used: its noise enters through
+    // `noise_var[0]` alone).
+    let local = noise::local_noise([sig[1], sig[2]], &hf.pick([1, 2]), w, dt);
     let p_in = hf.harmonics[0][0];
     let nn = st.len as f64;
     let amp_in = p_in.norm();
@@ -596,14 +598,14 @@ pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> Rec
             zero.iter().sum::<f64>() / zero.len().max(1) as f64
         },
         colour_raw: [
-            (ratio(1, local[1].near_omega), ratio(1, local[1].near_zero)),
-            (ratio(2, local[2].near_omega), ratio(2, local[2].near_zero)),
+            (ratio(1, local[0].near_omega), ratio(1, local[0].near_zero)),
+            (ratio(2, local[1].near_omega), ratio(2, local[1].near_zero)),
         ],
         colour_bins: [1, 2].map(|j| {
-            local[j]
+            local[j - 1]
                 .near_bins
                 .iter()
-                .chain(local[j].zero_bins.iter())
+                .chain(local[j - 1].zero_bins.iter())
                 .map(|&(f, p)| (f, ratio(j, p)))
                 .collect()
         }),

@@ -118,6 +118,21 @@ pub(crate) struct HarmonicFit<const S: usize> {
 }
 
 impl<const S: usize> HarmonicFit<S> {
+    /// The fit of the signals `which` (in that order) alone: each signal's fit is its own.
+    pub(crate) fn pick<const P: usize>(&self, which: [usize; P]) -> HarmonicFit<P> {
+        HarmonicFit {
+            harmonics: which.map(|j| self.harmonics[j].clone()),
+            noise_var: which.map(|j| self.noise_var[j]),
+            rss: which.map(|j| self.rss[j]),
+            yy: which.map(|j| self.yy[j]),
+            dc: which.map(|j| self.dc[j]),
+            trend: which.map(|j| self.trend[j]),
+            inv_diag_h1: self.inv_diag_h1,
+            inv_diag_trend: self.inv_diag_trend,
+            n: self.n,
+        }
+    }
+
     /// The summed normalised residual that the frequency refinement minimises.
     fn cost(&self) -> f64 {
         (0..S).map(|j| self.rss[j] / self.yy[j].max(1e-300)).sum()
