@@ -196,6 +196,9 @@ fn axis_variants(r: &DataRange) -> Vec<Vec<Binding>> {
     v
 }
 
+/// An effect bound to input or output axes from each of the `starts`: on every excited axis,
+/// each with its own value (two servos, two sensors: their latencies and filters differ), and
+/// on each axis alone.
 fn one_param(
     spec: &ModelSpec,
     r: &DataRange,
@@ -205,14 +208,13 @@ fn one_param(
     min: f64,
     max: f64,
 ) -> Vec<Start> {
-    let mut out = Vec::new();
-    for bindings in axis_variants(r) {
-        for &v in starts {
-            let s = with(spec, kind, &bindings, &[v]);
-            out.push((
-                s,
-                vec![Free::new(kind, bindings.clone(), param, v, min, max)],
-            ));
+    let mut out = per_axis(spec, r, kind, param, starts, min, max);
+    if r.axes_excited[0] && r.axes_excited[1] {
+        for b in AXES {
+            for &v in starts {
+                let s = with(spec, kind, &[b], &[v]);
+                out.push((s, vec![Free::new(kind, vec![b], param, v, min, max)]));
+            }
         }
     }
     out
@@ -375,25 +377,16 @@ fn acceleration_saturation(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
 }
 
 fn sensor_lowpass(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
-    let mut out = Vec::new();
-    for bindings in axis_variants(r) {
-        for f in [0.5, 1.0, 4.0] {
-            let wc = f * r.omega_max;
-            let s = with(spec, "sensor_lowpass", &bindings, &[wc]);
-            out.push((
-                s,
-                vec![Free::new(
-                    "sensor_lowpass",
-                    bindings.clone(),
-                    "cutoff",
-                    wc,
-                    0.2 * r.omega_min,
-                    100.0 * r.omega_max,
-                )],
-            ));
-        }
-    }
-    out
+    let starts = [0.5, 1.0, 4.0].map(|f| f * r.omega_max);
+    one_param(
+        spec,
+        r,
+        "sensor_lowpass",
+        "cutoff",
+        &starts,
+        0.2 * r.omega_min,
+        100.0 * r.omega_max,
+    )
 }
 
 /// The `k`-th of `n` starting frequencies of a structural mode: log-spaced from a sixth of the
