@@ -209,12 +209,12 @@ pub fn read_campaign(dir: &Path) -> Result<Campaign, CampaignError> {
     })
 }
 
-/// Runs `job(0..n)` on up to `available_parallelism` scoped threads and collects the results in
-/// index order; on failure the error of the smallest failing index.
+/// Runs `job(0..n)` on the thread budget ([`crate::par::budget`]: the available cores unless a
+/// caller set it) and collects the results in index order; on failure the error of the
+/// smallest failing index.
 pub(crate) fn for_each_parallel<T: Send>(
     n: usize,
     job: impl Fn(usize) -> Result<T, CampaignError> + Sync,
 ) -> Result<Vec<T>, CampaignError> {
-    let workers = std::thread::available_parallelism().map_or(1, |w| w.get());
-    crate::par::try_parallel_map(n, workers, job)
+    crate::par::try_parallel_map(n, crate::par::budget(), job)
 }

@@ -1,7 +1,40 @@
 //! Work shared out over scoped threads.
+//!
+//! One budget of threads per piece of work: an entry point sets it with [`with_threads`]
+//! (the user's `--threads`, 1 for the instruction-count benches), work nested inside a
+//! [`parallel_map`] worker gets 1 (the outer map already uses the cores), and code deep in a
+//! call tree asks [`budget`] instead of starting threads of its own.
 
+use std::cell::Cell;
 use std::convert::Infallible;
 use std::sync::atomic::{AtomicUsize, Ordering};
+
+thread_local! {
+    /// The thread budget set on this thread (`None`: not set, the machine's cores).
+    static BUDGET: Cell<Option<usize>> = const { Cell::new(None) };
+}
+
+/// Threads the work on this thread may use: what [`with_threads`] set, 1 inside a
+/// [`parallel_map`] worker, else the available cores.
+pub fn budget() -> usize {
+    BUDGET
+        .with(Cell::get)
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .max(1)
+}
+
+/// Runs `f` with the thread budget `threads` on this thread (restored afterwards, also when
+/// `f` panics).
+pub fn with_threads<R>(threads: usize, f: impl FnOnce() -> R) -> R {
+    struct Restore(Option<usize>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            BUDGET.with(|b| b.set(self.0));
+        }
+    }
+    let _restore = Restore(BUDGET.with(|b| b.replace(Some(threads.max(1)))));
+    f()
+}
 
 /// `(0..n).map(job)` on up to `threads` scoped threads (jobs handed out one at a time), results
 /// in index order.
@@ -30,6 +63,7 @@ pub fn try_parallel_map<T: Send, E: Send>(
         let handles: Vec<_> = (0..workers)
             .map(|_| {
                 s.spawn(|| {
+                    BUDGET.with(|b| b.set(Some(1)));
                     let mut mine = Vec::new();
                     loop {
                         let k = next.fetch_add(1, Ordering::Relaxed);
@@ -60,6 +94,24 @@ pub fn try_parallel_map<T: Send, E: Send>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn budget_is_set_restored_and_one_inside_workers() {
+        with_threads(3, || {
+            assert_eq!(budget(), 3);
+            let inner = parallel_map(4, 2, |_| budget());
+            assert_eq!(inner, vec![1; 4]);
+            // A map that runs on the calling thread (one worker) keeps the caller's budget.
+            assert_eq!(parallel_map(2, 1, |_| budget()), vec![3; 2]);
+            with_threads(2, || assert_eq!(budget(), 2));
+            assert_eq!(budget(), 3);
+        });
+        let outside = BUDGET.with(Cell::get);
+        assert_eq!(outside, None);
+        let caught = std::panic::catch_unwind(|| with_threads(5, || panic!("inside")));
+        assert!(caught.is_err());
+        assert_eq!(BUDGET.with(Cell::get), None);
+    }
 
     #[test]
     fn parallel_map_keeps_order() {

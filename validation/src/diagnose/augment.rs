@@ -144,6 +144,18 @@ pub fn augment_observations(
     effect: &str,
     opts: &DiagnoseOptions,
 ) -> Result<Augmented, DiagnoseError> {
+    crate::par::with_threads(opts.threads, || {
+        augment_observations_in_budget(refs, model, effect, opts)
+    })
+}
+
+/// [`augment_observations`] once its thread budget is set.
+fn augment_observations_in_budget(
+    refs: &[&Observation],
+    model: &ModelSpec,
+    effect: &str,
+    opts: &DiagnoseOptions,
+) -> Result<Augmented, DiagnoseError> {
     check_effect(effect, model, opts)?;
     let cand = CATALOGUE
         .iter()
@@ -176,6 +188,19 @@ pub fn augment_observations(
 /// convergence on every record, with standard errors and provenance. `model` is the version
 /// it follows (for the error before).
 pub fn version_from_diagnosis(
+    refs: &[&Observation],
+    model: &ModelSpec,
+    fitted: &Fitted,
+    change: &str,
+    opts: &DiagnoseOptions,
+) -> Result<Augmented, DiagnoseError> {
+    crate::par::with_threads(opts.threads, || {
+        version_from_diagnosis_in_budget(refs, model, fitted, change, opts)
+    })
+}
+
+/// [`version_from_diagnosis`] once its thread budget is set.
+fn version_from_diagnosis_in_budget(
     refs: &[&Observation],
     model: &ModelSpec,
     fitted: &Fitted,
@@ -218,6 +243,17 @@ fn finish(
 /// on `campaign`. Returns `None` in `Augmented::change` terms when the model has no effect
 /// beyond the core.
 pub fn refit_structure(
+    campaign: &Campaign,
+    model: &ModelSpec,
+    opts: &DiagnoseOptions,
+) -> Result<Option<Augmented>, DiagnoseError> {
+    crate::par::with_threads(opts.threads, || {
+        refit_structure_in_budget(campaign, model, opts)
+    })
+}
+
+/// [`refit_structure`] once its thread budget is set.
+fn refit_structure_in_budget(
     campaign: &Campaign,
     model: &ModelSpec,
     opts: &DiagnoseOptions,

@@ -62,6 +62,19 @@ pub fn run_loop(
     opts: &DiagnoseOptions,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<LoopResult, LoopError> {
+    crate::par::with_threads(opts.threads, || {
+        run_loop_in_budget(campaign, start, iopts, opts, progress)
+    })
+}
+
+/// [`run_loop`] once its thread budget is set.
+fn run_loop_in_budget(
+    campaign: &Campaign,
+    start: Option<ModelSpec>,
+    iopts: &IdentifyOptions,
+    opts: &DiagnoseOptions,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<LoopResult, LoopError> {
     progress("identifying");
     let iopts = IdentifyOptions {
         include_saturation: true,

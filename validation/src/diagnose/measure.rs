@@ -42,14 +42,16 @@ impl RecordScore {
 }
 
 /// Predictions of `spec` for every observation. Models with nonlinear effects (describing
-/// functions from simulation) are evaluated on two threads, split by frequency so that each
-/// describing function is computed once.
+/// functions from simulation) are evaluated on the thread budget ([`crate::par::budget`]: 1
+/// inside a candidate's fit, which already runs beside the others), split by frequency so
+/// that each describing function is computed once.
 pub fn predict(
     spec: &ModelSpec,
     obs: &[&Observation],
 ) -> Result<Vec<Prediction>, zmp_models::ModelError> {
     let nonlinear = spec.effects.iter().any(|e| !e.info.linear);
-    if !nonlinear || obs.len() < 8 {
+    let workers = crate::par::budget().min(obs.len() / 4);
+    if !nonlinear || workers < 2 {
         return predict_serial(spec, obs);
     }
     let omegas = {
@@ -58,25 +60,15 @@ pub fn predict(
         w.dedup();
         w
     };
-    // Alternate frequencies between the two halves: the low ones cost the most.
-    let half = |o: &Observation| omegas.iter().position(|w| *w == o.omega).unwrap_or(0) % 2;
-    let parts: [Vec<usize>; 2] = [
-        (0..obs.len()).filter(|&k| half(obs[k]) == 0).collect(),
-        (0..obs.len()).filter(|&k| half(obs[k]) == 1).collect(),
-    ];
-    let results = std::thread::scope(|s| {
-        let hs: Vec<_> = parts
-            .iter()
-            .map(|ix| {
-                s.spawn(move || {
-                    let mine: Vec<&Observation> = ix.iter().map(|&k| obs[k]).collect();
-                    predict_serial(spec, &mine)
-                })
-            })
-            .collect();
-        hs.into_iter()
-            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
-            .collect::<Vec<_>>()
+    // Deal the frequencies out in turn: the low ones cost the most.
+    let part_of =
+        |o: &Observation| omegas.iter().position(|w| *w == o.omega).unwrap_or(0) % workers;
+    let parts: Vec<Vec<usize>> = (0..workers)
+        .map(|p| (0..obs.len()).filter(|&k| part_of(obs[k]) == p).collect())
+        .collect();
+    let results = crate::par::parallel_map(workers, workers, |p| {
+        let mine: Vec<&Observation> = parts[p].iter().map(|&k| obs[k]).collect();
+        predict_serial(spec, &mine)
     });
     let mut out = vec![
         Prediction {

@@ -317,6 +317,19 @@ pub fn diagnose_observations(
     opts: &DiagnoseOptions,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<Diagnosis, DiagnoseError> {
+    crate::par::with_threads(opts.threads, || {
+        diagnose_observations_in_budget(observations, skipped, model, opts, progress)
+    })
+}
+
+/// [`diagnose_observations`] once its thread budget is set.
+fn diagnose_observations_in_budget(
+    observations: Vec<Observation>,
+    skipped: Vec<(usize, String)>,
+    model: &ModelSpec,
+    opts: &DiagnoseOptions,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<Diagnosis, DiagnoseError> {
     zmp_models::effects::servo::clear_describing_function_cache();
     let obs: Vec<&Observation> = observations.iter().collect();
     let base_predictions = check_inputs(&obs, model, opts)?;

@@ -1,0 +1,66 @@
+//! The prediction of a nonlinear model shares its frequencies out over the thread budget
+//! (`zmp_validation::par`): one thread, two or three give the same predictions to the bit
+//! (each describing function is computed by one worker from the same inputs), and inside a
+//! pool's worker the budget is one thread (the instruction-count benches ask for one and
+//! count only the thread they run on).
+
+use zmp_models::{Axis, Binding};
+use zmp_validation::blind::paper;
+use zmp_validation::diagnose::candidates::add_effect;
+use zmp_validation::diagnose::measure::predict;
+use zmp_validation::diagnose::observe::Observation;
+use zmp_validation::diagnose::run::observe_campaign;
+use zmp_validation::par::{budget, parallel_map, with_threads};
+use zmp_validation::virtual_robot::{logspace, simulate_campaign, ExperimentDesign};
+
+#[test]
+fn predictions_do_not_depend_on_the_thread_budget() {
+    let axes = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
+    let mut robot = paper();
+    add_effect(&mut robot, "backlash", &axes, &[0.001]);
+    let design = ExperimentDesign {
+        operating_points: vec![[0.0, 0.0]],
+        amplitudes: vec![0.003, 0.008],
+        omegas: logspace(0.5, 12.0, 5),
+        ..ExperimentDesign::reference()
+    };
+    let camp = simulate_campaign(&robot, &design).unwrap();
+    let (obs, skipped) = observe_campaign(&camp, 2);
+    assert!(skipped.is_empty(), "{skipped:?}");
+    let refs: Vec<&Observation> = obs.iter().collect();
+    assert!(refs.len() >= 12, "{} observations", refs.len());
+    // A play and an acceleration limit that the fastest, largest records reach: describing
+    // functions simulated by the servo.
+    let mut model = paper();
+    add_effect(&mut model, "backlash", &axes, &[0.0012]);
+    add_effect(&mut model, "acceleration_saturation", &axes, &[0.6]);
+    let bits = |threads: usize| {
+        zmp_models::effects::servo::clear_describing_function_cache();
+        let p = with_threads(threads, || predict(&model, &refs)).unwrap();
+        p.iter()
+            .flat_map(|p| {
+                (0..2).flat_map(move |i| {
+                    [p.g[i].re, p.g[i].im, p.g3[i].re, p.g3[i].im].map(f64::to_bits)
+                })
+            })
+            .collect::<Vec<_>>()
+    };
+    let one = bits(1);
+    // The play is seen: the predictions are not the linear model's.
+    let linear = predict(&paper(), &refs).unwrap();
+    let p1 = with_threads(1, || predict(&model, &refs)).unwrap();
+    let moved = p1
+        .iter()
+        .zip(&linear)
+        .filter(|(a, b)| (a.g[0] - b.g[0]).norm() > 1e-3 * b.g[0].norm())
+        .count();
+    assert!(
+        moved >= 4,
+        "only {moved} predictions differ from the linear model's"
+    );
+    assert_eq!(bits(2), one);
+    assert_eq!(bits(3), one);
+    // Inside a worker of a pool the budget is one thread, whatever the caller's.
+    let inner = with_threads(2, || parallel_map(3, 2, |_| budget()));
+    assert_eq!(inner, vec![1, 1, 1]);
+}
