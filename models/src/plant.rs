@@ -492,11 +492,11 @@ impl Plant {
                 g3 *= e.frequency_response(w3, amp);
             }
         }
-        g *= self.lowpass[j].tf().freq(omega);
+        g *= self.lowpass[j].freq(omega);
         let pendulum = |w: f64| Complex64::new(self.a_lin[i][j] + self.b[i][j] * w * w, 0.0);
         g *= pendulum(omega);
         if third {
-            g3 = (g3 * self.lowpass[j].tf().freq(w3) + servo3) * pendulum(w3);
+            g3 = (g3 * self.lowpass[j].freq(w3) + servo3) * pendulum(w3);
         }
         for e in self.channel[i][j].iter().chain(&self.sensor[i]) {
             g *= e.frequency_response(omega, amp);

@@ -1093,7 +1093,7 @@ fn start_factors(start: Option<&ModelSpec>, records: &[RecordFit]) -> Vec<[Compl
                     output: Axis::from_index(i).expect("0 or 1"),
                     input: r.excited,
                 };
-                let core = pend.response(ch, r.omega) * lps[j].tf().freq(r.omega);
+                let core = pend.response(ch, r.omega) * lps[j].freq(r.omega);
                 if core.norm() > 0.0 {
                     f[i] = full[i][j] / core;
                 }

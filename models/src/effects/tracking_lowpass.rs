@@ -74,6 +74,21 @@ impl TrackingLowpass {
         )
     }
 
+    /// `tf().freq(omega)` without building the transfer function (no allocation: the
+    /// describing functions evaluate it millions of times); the same Horner sums, so the same
+    /// bits.
+    #[inline]
+    pub fn freq(&self, omega: f64) -> Complex64 {
+        let s = Complex64::new(0.0, omega);
+        let horner = |c: &[f64]| {
+            c.iter()
+                .rev()
+                .fold(Complex64::new(0.0, 0.0), |acc, &c| acc * s + c)
+        };
+        let w2 = self.omega_n * self.omega_n;
+        horner(&[w2]) / horner(&[w2, 2.0 * self.zeta * self.omega_n, 1.0])
+    }
+
     /// Time constant of the slowest pole, s: `1/(zeta wn)` when underdamped; when overdamped
     /// the slow real pole `wn (zeta - sqrt(zeta^2 - 1))`, i.e. `tau = (zeta + sqrt(zeta^2 - 1))/wn`.
     pub fn slowest_time_constant(&self) -> f64 {
@@ -90,7 +105,7 @@ impl Effect for TrackingLowpass {
         &INFO
     }
     fn frequency_response(&self, omega: f64, _amplitude: f64) -> Complex64 {
-        self.tf().freq(omega)
+        self.freq(omega)
     }
     fn reset(&mut self, u: f64) -> f64 {
         u
@@ -105,4 +120,26 @@ fn build(_ctx: &BuildContext, v: &[f64]) -> Box<dyn Effect> {
         omega_n: v[0],
         zeta: v[1],
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn freq_is_the_transfer_functions_value_to_the_bit() {
+        for wn in [0.5, 12.8, 30.0, 77.7, 400.0] {
+            for zeta in [0.05, 0.7, 1.0, 2.3] {
+                for omega in [0.0, 0.3, 4.2, 30.0, 125.0, 3e3] {
+                    let lp = TrackingLowpass { omega_n: wn, zeta };
+                    let (a, b) = (lp.freq(omega), lp.tf().freq(omega));
+                    assert_eq!(
+                        (a.re.to_bits(), a.im.to_bits()),
+                        (b.re.to_bits(), b.im.to_bits()),
+                        "wn {wn}, zeta {zeta}, omega {omega}: {a} against {b}"
+                    );
+                }
+            }
+        }
+    }
 }
