@@ -11,6 +11,7 @@ pub mod effects;
 pub mod harmonic;
 pub mod lti;
 pub mod lti_effect;
+pub mod memo;
 pub mod model_file;
 pub mod plant;
 pub mod walking;

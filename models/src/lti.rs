@@ -11,6 +11,7 @@
 //! followed by `step(u)`: `x[k+1] = phi x[k] + gamma0 u[k]`, the `gamma0` of
 //! [`discretise_foh`].
 
+use crate::memo::Memo;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
@@ -130,11 +131,30 @@ pub fn canonical(tf: &TransferFunction) -> (DMatrix<f64>, DVector<f64>, DVector<
 ///
 /// Returns `(phi, gamma0, gamma1)` with
 /// `x[k+1] = phi x[k] + gamma0 u[k] + gamma1 (u[k+1] - u[k]) / h`.
+///
+/// Remembered by the exact bits of `A`, `B` and `h`: a fit builds the same plant's blocks over
+/// and over (every Jacobian column of a parameter they do not hold, every candidate beside the
+/// unchanged servo), and the matrix exponential was a tenth of a diagnosis's instructions.
 pub fn discretise_foh(
     a: &DMatrix<f64>,
     b: &DVector<f64>,
     h: f64,
 ) -> (DMatrix<f64>, DVector<f64>, DVector<f64>) {
+    let key: Vec<u64> = [a.nrows() as f64, h]
+        .iter()
+        .chain(a.iter())
+        .chain(b.iter())
+        .map(|v| v.to_bits())
+        .collect();
+    FOH_CACHE.get_or(key, || discretise_foh_uncached(a, b, h))
+}
+
+type Foh = (DMatrix<f64>, DVector<f64>, DVector<f64>);
+
+/// [`discretise_foh`]'s memory.
+static FOH_CACHE: Memo<Vec<u64>, Foh> = Memo::new(4096);
+
+fn discretise_foh_uncached(a: &DMatrix<f64>, b: &DVector<f64>, h: f64) -> Foh {
     let n = a.nrows();
     // exp([[A, B, 0], [0, 0, 1], [0, 0, 0]] h) = [[phi, gamma0, gamma1], ...]
     let mut m = DMatrix::zeros(n + 2, n + 2);

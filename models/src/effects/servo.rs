@@ -10,11 +10,9 @@ use crate::effect::Effect;
 use crate::effects::servo_link::{Linked, TrunkLink};
 use crate::effects::tracking_lowpass::TrackingLowpass;
 use crate::lti::discretise_foh;
+use crate::memo::Memo;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
-use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, DefaultHasher};
-use std::sync::{LazyLock, Mutex};
 
 /// CoM state of one axis after a step.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -403,33 +401,15 @@ fn offset(limits: &mut [Box<dyn Effect>], demand: f64, v: f64) -> f64 {
 /// Describing functions already computed, by their exact inputs: fits evaluate the same servo
 /// at the same frequencies and amplitudes many times (once per output, per operating point,
 /// per Jacobian column of a parameter the servo ignores).
-/// A fixed hasher (no per-process random keys): the same lookups cost the same work in every
-/// run, so the diagnosis's instruction count repeats exactly (the benches' gate).
-static DF_CACHE: LazyLock<Mutex<DfCache>> = LazyLock::new(|| Mutex::new(DfCache::default()));
-
-type DfCache = HashMap<[u64; 12], Harmonics, BuildHasherDefault<DefaultHasher>>;
-
-/// Entries kept before the cache starts afresh.
-const DF_CACHE_MAX: usize = 200_000;
+static DF_CACHE: Memo<[u64; 12], Harmonics> = Memo::new(200_000);
 
 /// Forgets every cached describing function (a new campaign or a timed run starts afresh).
 pub fn clear_describing_function_cache() {
-    DF_CACHE.lock().unwrap_or_else(|p| p.into_inner()).clear();
+    DF_CACHE.clear();
 }
 
 fn cached(key: [f64; 12], compute: impl FnOnce() -> Harmonics) -> Harmonics {
-    let k = key.map(f64::to_bits);
-    let lock = || DF_CACHE.lock().unwrap_or_else(|p| p.into_inner());
-    if let Some(v) = lock().get(&k).copied() {
-        return v;
-    }
-    let v = compute();
-    let mut c = lock();
-    if c.len() >= DF_CACHE_MAX {
-        c.clear();
-    }
-    c.insert(k, v);
-    v
+    DF_CACHE.get_or(key.map(f64::to_bits), compute)
 }
 
 /// First harmonic of the servo position with `limits`, divided by the linear servo's, for a
