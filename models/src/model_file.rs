@@ -255,7 +255,7 @@ impl ModelSpec {
                     ),
                 ));
             }
-            check_values(e.info, &e.values, file, &e.key())?;
+            check_values(e.info, &e.values, file, || e.key())?;
         }
         Ok(())
     }
@@ -394,22 +394,24 @@ pub fn fmt_float(v: f64) -> String {
     }
 }
 
+/// Checks an effect's values; `key` names the effect in an error (built only for one: plants
+/// are built, and their specs validated, hundreds of thousands of times in a diagnosis).
 fn check_values(
     info: &EffectInfo,
     values: &[f64],
     file: &str,
-    key: &str,
+    key: impl Fn() -> String,
 ) -> Result<(), ModelError> {
     if let Some(validate) = info.validate {
         if let Err((i, msg)) = validate(values) {
-            return Err(err(file, format!("{key}.{}", info.params[i].name), msg));
+            return Err(err(file, format!("{}.{}", key(), info.params[i].name), msg));
         }
     }
     for (p, v) in info.params.iter().zip(values) {
         if !v.is_finite() || *v < p.min || *v > p.max {
             return Err(err(
                 file,
-                format!("{key}.{}", p.name),
+                format!("{}.{}", key(), p.name),
                 format!(
                     "{v} is out of bounds [{}, {}] {} ({})",
                     p.min, p.max, p.unit, p.doc
