@@ -709,11 +709,10 @@ pub fn pool_colour(records: &mut [RecordFit], relative_floor: f64) {
     }
 }
 
-/// Worker threads for `opts`: `opts.threads`, else the available cores.
+/// Worker threads for `opts`: `opts.threads`, else the thread budget ([`crate::par::budget`]:
+/// the available cores unless a caller set it).
 fn worker_count(opts: &IdentifyOptions) -> usize {
-    opts.threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |w| w.get()))
-        .max(1)
+    opts.threads.unwrap_or_else(crate::par::budget).max(1)
 }
 
 /// Identifies the campaign (see the module docs).

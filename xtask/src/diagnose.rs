@@ -16,8 +16,9 @@ use zmp_validation::io::{atomic_write, check_output_file, claim_dir, REPORT_MARK
 use zmp_validation::ledger;
 use zmp_validation::plot::bars_svg;
 
+/// The thread budget (`--threads`, else every core).
 fn threads() -> usize {
-    std::thread::available_parallelism().map_or(1, |n| n.get())
+    zmp_validation::par::budget()
 }
 
 pub fn read(campaign: &Path, quiet: bool) -> Result<Campaign> {

@@ -60,7 +60,7 @@ fn options(campaign: &Path, model: &Path) -> DiagnoseOptions {
     DiagnoseOptions {
         campaign_path: campaign.display().to_string(),
         model_path: model.display().to_string(),
-        threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        threads: zmp_validation::par::budget(),
         ..DiagnoseOptions::default()
     }
 }

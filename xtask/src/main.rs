@@ -25,6 +25,10 @@ use clap::{Parser, Subcommand};
 struct Cli {
     #[command(subcommand)]
     command: Cmd,
+    /// Worker threads for reading, identification and diagnosis (identify, compare, diagnose,
+    /// augment, loop). Default: every core. Results do not depend on it.
+    #[arg(long, global = true, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    threads: Option<u16>,
 }
 
 #[derive(Subcommand)]
@@ -354,7 +358,14 @@ fn main() -> ExitCode {
 }
 
 fn run(cli: Cli) -> Result<()> {
-    match cli.command {
+    match cli.threads {
+        Some(n) => zmp_validation::par::with_threads(usize::from(n), || dispatch(cli.command)),
+        None => dispatch(cli.command),
+    }
+}
+
+fn dispatch(command: Cmd) -> Result<()> {
+    match command {
         Cmd::Setup { quiet } => setup::setup(quiet).map(|_| ()),
         Cmd::Ci => ci::ci(),
         Cmd::Bench {
