@@ -2,37 +2,55 @@
 //!
 //! One budget of threads per piece of work: an entry point sets it with [`with_threads`]
 //! (the user's `--threads`, 1 for the instruction-count benches), work nested inside a
-//! [`parallel_map`] worker gets 1 (the outer map already uses the cores), and code deep in a
-//! call tree asks [`budget`] instead of starting threads of its own.
+//! [`parallel_map`] worker gets 1 plus the pool's workers that have run out of jobs (the outer
+//! map already uses the cores; at its tail, the last long job may use the cores the others left
+//! idle), and code deep in a call tree asks [`budget`] instead of starting threads of its own.
 
-use std::cell::Cell;
+use std::cell::RefCell;
 use std::convert::Infallible;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
 
-thread_local! {
-    /// The thread budget set on this thread (`None`: not set, the machine's cores).
-    static BUDGET: Cell<Option<usize>> = const { Cell::new(None) };
+#[derive(Clone)]
+enum Budget {
+    /// Not set: the machine's cores.
+    Machine,
+    Fixed(usize),
+    /// A pool's worker: 1 plus the pool's workers that found no more jobs.
+    Worker(Arc<AtomicUsize>),
 }
 
-/// Threads the work on this thread may use: what [`with_threads`] set, 1 inside a
-/// [`parallel_map`] worker, else the available cores.
+thread_local! {
+    static BUDGET: RefCell<Budget> = const { RefCell::new(Budget::Machine) };
+}
+
+/// Threads the work on this thread may use: what [`with_threads`] set; inside a
+/// [`parallel_map`] worker 1 plus its pool's idle workers; else the available cores.
 pub fn budget() -> usize {
-    BUDGET
-        .with(Cell::get)
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-        .max(1)
+    match BUDGET.with(|b| b.borrow().clone()) {
+        Budget::Machine => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        Budget::Fixed(n) => n,
+        Budget::Worker(idle) => 1 + idle.load(Ordering::Relaxed),
+    }
+    .max(1)
+}
+
+fn set_budget(b: Budget) -> Budget {
+    BUDGET.with(|cell| cell.replace(b))
 }
 
 /// Runs `f` with the thread budget `threads` on this thread (restored afterwards, also when
 /// `f` panics).
 pub fn with_threads<R>(threads: usize, f: impl FnOnce() -> R) -> R {
-    struct Restore(Option<usize>);
+    struct Restore(Option<Budget>);
     impl Drop for Restore {
         fn drop(&mut self) {
-            BUDGET.with(|b| b.set(self.0));
+            if let Some(b) = self.0.take() {
+                set_budget(b);
+            }
         }
     }
-    let _restore = Restore(BUDGET.with(|b| b.replace(Some(threads.max(1)))));
+    let _restore = Restore(Some(set_budget(Budget::Fixed(threads.max(1)))));
     f()
 }
 
@@ -59,11 +77,12 @@ pub fn try_parallel_map<T: Send, E: Send>(
     }
     let next = AtomicUsize::new(0);
     let first_failure = AtomicUsize::new(usize::MAX);
+    let idle = Arc::new(AtomicUsize::new(0));
     let mut done: Vec<(usize, Result<T, E>)> = std::thread::scope(|s| {
         let handles: Vec<_> = (0..workers)
             .map(|_| {
                 s.spawn(|| {
-                    BUDGET.with(|b| b.set(Some(1)));
+                    set_budget(Budget::Worker(Arc::clone(&idle)));
                     let mut mine = Vec::new();
                     loop {
                         let k = next.fetch_add(1, Ordering::Relaxed);
@@ -76,6 +95,7 @@ pub fn try_parallel_map<T: Send, E: Send>(
                         }
                         mine.push((k, result));
                     }
+                    idle.fetch_add(1, Ordering::Relaxed);
                     mine
                 })
             })
@@ -96,21 +116,34 @@ mod tests {
     use super::*;
 
     #[test]
-    fn budget_is_set_restored_and_one_inside_workers() {
+    fn budget_is_set_restored_and_grows_at_a_pools_tail() {
+        let unset = || matches!(BUDGET.with(|b| b.borrow().clone()), Budget::Machine);
         with_threads(3, || {
             assert_eq!(budget(), 3);
-            let inner = parallel_map(4, 2, |_| budget());
-            assert_eq!(inner, vec![1; 4]);
+            // Job 0 returns at once; its worker then finds no job left and goes idle, which
+            // job 1 (busy while job 0 ran: it saw a budget of 1) sees as a second thread.
+            let seen = parallel_map(2, 2, |k| {
+                if k == 0 {
+                    return (budget(), budget());
+                }
+                let first = budget();
+                let t = std::time::Instant::now();
+                while budget() < 2 && t.elapsed().as_secs() < 10 {
+                    std::thread::yield_now();
+                }
+                (first, budget())
+            });
+            assert!(seen[0].0 <= 2 && seen[1].0 <= 2, "{seen:?}");
+            assert_eq!(seen[1].1, 2, "{seen:?}");
             // A map that runs on the calling thread (one worker) keeps the caller's budget.
             assert_eq!(parallel_map(2, 1, |_| budget()), vec![3; 2]);
             with_threads(2, || assert_eq!(budget(), 2));
             assert_eq!(budget(), 3);
         });
-        let outside = BUDGET.with(Cell::get);
-        assert_eq!(outside, None);
+        assert!(unset());
         let caught = std::panic::catch_unwind(|| with_threads(5, || panic!("inside")));
         assert!(caught.is_err());
-        assert_eq!(BUDGET.with(Cell::get), None);
+        assert!(unset());
     }
 
     #[test]

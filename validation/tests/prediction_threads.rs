@@ -1,8 +1,8 @@
 //! The prediction of a nonlinear model shares its frequencies out over the thread budget
 //! (`zmp_validation::par`): one thread, two or three give the same predictions to the bit
 //! (each describing function is computed by one worker from the same inputs), and inside a
-//! pool's worker the budget is one thread (the instruction-count benches ask for one and
-//! count only the thread they run on).
+//! pool's worker the budget is one thread plus the pool's idle workers, not the caller's again
+//! (the instruction-count benches ask for one thread and count only the thread they run on).
 
 use zmp_models::{Axis, Binding};
 use zmp_validation::blind::paper;
@@ -60,7 +60,8 @@ fn predictions_do_not_depend_on_the_thread_budget() {
     );
     assert_eq!(bits(2), one);
     assert_eq!(bits(3), one);
-    // Inside a worker of a pool the budget is one thread, whatever the caller's.
+    // Inside a worker of a pool the budget is one thread plus the pool's idle workers, never
+    // the caller's whole budget again.
     let inner = with_threads(2, || parallel_map(3, 2, |_| budget()));
-    assert_eq!(inner, vec![1, 1, 1]);
+    assert!(inner.iter().all(|b| (1..=2).contains(b)), "{inner:?}");
 }
