@@ -42,9 +42,9 @@ impl RecordScore {
 }
 
 /// Predictions of `spec` for every observation. Models with nonlinear effects (describing
-/// functions from simulation) are evaluated on the thread budget ([`crate::par::budget`]: 1
-/// inside a candidate's fit, which already runs beside the others), split by frequency so
-/// that each describing function is computed once.
+/// functions from simulation) are evaluated on the thread budget ([`crate::par::budget`]:
+/// inside a candidate's fit, which already runs beside the others, 1 plus the pool's idle
+/// workers), split by frequency so that each describing function is computed once.
 pub fn predict(
     spec: &ModelSpec,
     obs: &[&Observation],
