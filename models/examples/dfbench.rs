@@ -37,12 +37,7 @@ fn main() {
 /// loop), at 1.5x and 3x the linear force.
 fn saturation_with_link() {
     use zmp_models::effects::servo_link::TrunkLink;
-    let link = TrunkLink {
-        omega_m: 14.0,
-        zeta_m: 0.08,
-        share: 0.35,
-        drive: 0.29,
-    };
+    let link = TrunkLink::flexible(14.0, 0.08, 0.35, 0.29);
     for link in [None, Some(link)] {
         let ctx = BuildContext {
             h: 0.001,

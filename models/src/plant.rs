@@ -123,16 +123,37 @@ impl Plant {
         // A flexible trunk with `in_servo = 1` is stepped inside its axis's servo loop (where a
         // force limit or friction acts on the force that drives the joint against the link);
         // otherwise it is the small-signal filter of the CoM reference before the servo.
-        let link = Axis::BOTH.map(|a| {
+        // A backlash with `in_servo = 1` is the play of such a link between drive and trunk.
+        let trunk = Axis::BOTH.map(|a| {
             let v = &spec.get("flexible_trunk", Binding::Axis(a))?.values;
-            let link = TrunkLink {
-                omega_m: v[0],
-                zeta_m: v[1],
-                share: v.get(2).copied().unwrap_or(0.5),
-                drive: v.get(3).copied().unwrap_or(0.0),
-            };
+            let link = TrunkLink::flexible(
+                v[0],
+                v[1],
+                v.get(2).copied().unwrap_or(0.5),
+                v.get(3).copied().unwrap_or(0.0),
+            );
             (v.get(4) == Some(&1.0) && link.share > 0.0).then_some(link)
         });
+        let play = Axis::BOTH.map(|a| {
+            crate::effects::backlash::servo_link(&spec.get("backlash", Binding::Axis(a))?.values)
+        });
+        let mut link = [None; 2];
+        for a in Axis::BOTH {
+            let k = a.index();
+            link[k] = match (trunk[k], play[k]) {
+                (Some(_), Some(_)) => {
+                    return Err(ModelError {
+                        file,
+                        key: format!("backlash.{}.in_servo", a.name()),
+                        message: "a servo drives one link: a backlash inside the servo and a \
+                                  flexible trunk inside it on the same axis are not supported \
+                                  (set one of them in_servo = 0)"
+                            .into(),
+                    })
+                }
+                (t, p) => t.or(p),
+            };
+        }
         let servo = |k: usize| {
             let s = Servo::new(lowpass[k].omega_n, lowpass[k].zeta, h);
             match link[k] {
@@ -193,7 +214,8 @@ impl Plant {
             let effect = inst.build(&ctx);
             match (inst.info.site, inst.binding) {
                 (Site::Command, Binding::Axis(a))
-                    if inst.info.kind == "flexible_trunk" && in_loop.is_some() =>
+                    if (inst.info.kind == "flexible_trunk" && trunk[a.index()].is_some())
+                        || (inst.info.kind == "backlash" && play[a.index()].is_some()) =>
                 {
                     plant.in_loop[a.index()].push(effect)
                 }
@@ -471,8 +493,9 @@ impl Plant {
             }
         }
         let mut servo3 = zero;
+        // The reference the servo follows (after the command effects).
+        let reference = g;
         if amplitude.is_some() {
-            let reference = g;
             for e in &self.servo_limits[j] {
                 if third {
                     let (n, h3) = e.harmonics(omega, amp);
@@ -486,10 +509,22 @@ impl Plant {
         // The linked loop's linear response is the flexible trunk's filter times `H`; the
         // servo effects' describing functions above are relative to it, their third harmonics
         // are the servo's own (the CoM's with a linked trunk).
+        // A play inside the loop (a backlash `in_servo`) is the loop's describing function at
+        // the reference's amplitude, its third harmonic the CoM's own; a command's third
+        // harmonic passes its engaged, small-signal filter.
         for e in &self.in_loop[j] {
-            g *= e.frequency_response(omega, amp);
-            if third {
-                g3 *= e.frequency_response(w3, amp);
+            if e.info().linear {
+                g *= e.frequency_response(omega, amp);
+                if third {
+                    g3 *= e.frequency_response(w3, amp);
+                }
+            } else if third {
+                let (n, h3) = e.harmonics(omega, amp);
+                servo3 += own(h3, reference, amp);
+                g *= n;
+                g3 *= e.frequency_response(w3, 0.0);
+            } else {
+                g *= e.frequency_response(omega, if amplitude.is_some() { amp } else { 0.0 });
             }
         }
         g *= self.lowpass[j].freq(omega);

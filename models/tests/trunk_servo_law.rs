@@ -100,12 +100,7 @@ fn in_the_linear_range_the_stepped_loop_is_the_trunk_filter() {
 
 /// The servo force's linear demand, per unit reference, at `omega` for the axis above.
 fn force_gain(omega: f64) -> f64 {
-    let link = zmp_models::effects::servo_link::TrunkLink {
-        omega_m: 14.0,
-        zeta_m: 0.08,
-        share: 0.35,
-        drive: 0.29,
-    };
+    let link = zmp_models::effects::servo_link::TrunkLink::flexible(14.0, 0.08, 0.35, 0.29);
     let (wn, z) = (25.0, 0.9);
     let xj = zmp_models::effects::servo_link::joint_response(Some(link), wn, z, omega);
     (wn * wn * (1.0 - xj) - Complex64::new(0.0, omega * 2.0 * z * wn) * xj).norm()

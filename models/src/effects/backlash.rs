@@ -1,31 +1,156 @@
 //! Backlash (mechanical play) between servo and trunk: a dead band of total `width`. The output
 //! only moves once the input has crossed the play; a sine of amplitude below `width/2` gives no
-//! motion at all. Modelled on the command ahead of the tracking dynamics, which keeps the trunk
-//! acceleration finite (play between rigid bodies would give impacts no ZMP sensor resolves).
+//! motion at all.
+//!
+//! Two laws, chosen by `in_servo`:
+//!
+//! * `0` (the default): a play operator on the CoM command ahead of the tracking dynamics,
+//!   which keeps the trunk acceleration finite. Where the servo is linear this is the play's
+//!   small-signal effect.
+//! * `1`: the play inside the servo's loop, where a gear's play sits on a robot: the servo
+//!   closes its loop on the drive's encoder (a `drive` part of the axis's inertia: the
+//!   motor's reflected rotor), and the drive pushes the trunk through a stiff, damped
+//!   transmission (`transmission_omega`, `transmission_zeta`: the trunk's mode on it with the
+//!   drive held) once it has crossed the play; the disengaged trunk coasts against its
+//!   bearing's drag (`load_drag`, 1/s). With the seed's force limit acting the laws part:
+//!   in the play the limited force accelerates the drive alone, which then hits the trunk;
+//!   before the servo, the play only delays the command of a clamped rigid trunk. The plant
+//!   steps the two bodies ([`crate::effects::servo_link`], one link per axis: not with a
+//!   flexible trunk `in_servo`); the describing functions simulate that loop.
 
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
+use crate::effects::servo::play_harmonics;
+use crate::effects::servo_link::{com_response, TrunkLink};
+use crate::effects::tracking_lowpass::TrackingLowpass;
 use num_complex::Complex64;
 use std::f64::consts::PI;
 
-pub static PARAMS: [ParamSpec; 1] = [ParamSpec::required(
-    "width",
-    "m",
-    0.0,
-    0.1,
-    "total play, expressed as CoM displacement",
-)];
+pub static PARAMS: [ParamSpec; 6] = [
+    ParamSpec::required(
+        "width",
+        "m",
+        0.0,
+        0.1,
+        "total play, expressed as CoM displacement",
+    ),
+    ParamSpec::optional(
+        "in_servo",
+        "1",
+        0.0,
+        1.0,
+        0.0,
+        "1: the play between the drive and the trunk inside the servo's loop; 0: a play on the CoM command before the servo",
+    ),
+    ParamSpec::optional(
+        "transmission_omega",
+        "rad/s",
+        1.0,
+        5000.0,
+        150.0,
+        "in_servo: the trunk's mode on the transmission with the drive held",
+    ),
+    ParamSpec::optional(
+        "transmission_zeta",
+        "1",
+        1e-3,
+        2.0,
+        0.2,
+        "in_servo: damping ratio of that mode",
+    ),
+    ParamSpec::optional(
+        "drive",
+        "1",
+        0.01,
+        0.9,
+        0.3,
+        "in_servo: part of the axis's inertia in the drive (the servo's encoder side)",
+    ),
+    ParamSpec::optional(
+        "load_drag",
+        "1/s",
+        0.0,
+        1000.0,
+        20.0,
+        "in_servo: viscous drag of the trunk at its bearing (brakes it in the play)",
+    ),
+];
+
+/// `in_servo` is a switch between two laws, 0 or 1.
+fn validate(v: &[f64]) -> Result<(), (usize, String)> {
+    match v.get(1) {
+        Some(x) if *x != 0.0 && *x != 1.0 => Err((
+            1,
+            format!(
+                "{x}: 0 (a play on the CoM command before the servo) or 1 (the play between \
+                 drive and trunk, inside the servo's loop)"
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
 
 pub static INFO: EffectInfo = EffectInfo {
     kind: "backlash",
     title: "backlash (dead band)",
-    doc: "Play operator of total width w on the CoM reference.",
+    doc: "Play of total width w: on the CoM reference (in_servo = 0) or between drive and trunk inside the servo (in_servo = 1).",
     site: Site::Command,
     core: false,
     linear: false,
     params: &PARAMS,
-    validate: None,
+    validate: Some(validate),
     build,
 };
+
+/// The link a backlash `in_servo = 1` with values `v` puts in its axis's servo (`None` for a
+/// play on the command).
+pub fn servo_link(v: &[f64]) -> Option<TrunkLink> {
+    let p = |k: usize| v.get(k).copied().or(PARAMS[k].default).unwrap_or(0.0);
+    (p(1) == 1.0 && v[0] > 0.0).then(|| TrunkLink {
+        omega_m: p(2),
+        zeta_m: p(3),
+        share: 1.0,
+        drive: p(4),
+        half_play: 0.5 * v[0],
+        drag: p(5),
+    })
+}
+
+/// A backlash inside the servo: only its frequency response (the two-body loop's
+/// describing function over the rigid servo's); the servo steps it.
+#[derive(Debug, Clone)]
+pub struct PlayInServo {
+    link: TrunkLink,
+    servo: (f64, f64),
+    h: f64,
+}
+
+impl Effect for PlayInServo {
+    fn info(&self) -> &'static EffectInfo {
+        &INFO
+    }
+    /// Without an amplitude, the engaged loop's small-signal filter.
+    fn frequency_response(&self, omega: f64, amplitude: f64) -> Complex64 {
+        if amplitude <= 0.0 {
+            let (omega_n, zeta) = self.servo;
+            return com_response(self.link, omega_n, zeta, omega)
+                / TrackingLowpass { omega_n, zeta }.freq(omega);
+        }
+        self.harmonics(omega, amplitude).0
+    }
+    fn third_harmonic(&self, omega: f64, amplitude: f64) -> Complex64 {
+        self.harmonics(omega, amplitude).1
+    }
+    fn harmonics(&self, omega: f64, amplitude: f64) -> (Complex64, Complex64) {
+        play_harmonics(self.servo, self.h, self.link, omega, amplitude)
+    }
+    fn reset(&mut self, u: f64) -> f64 {
+        u
+    }
+    #[inline]
+    fn step(&mut self, u: f64) -> f64 {
+        u
+    }
+}
 
 #[derive(Debug, Clone)]
 pub struct Backlash {
@@ -123,8 +248,15 @@ impl Effect for Backlash {
     }
 }
 
-fn build(_ctx: &BuildContext, v: &[f64]) -> Box<dyn Effect> {
-    Box::new(Backlash::new(v[0]))
+fn build(ctx: &BuildContext, v: &[f64]) -> Box<dyn Effect> {
+    match servo_link(v) {
+        Some(link) => Box::new(PlayInServo {
+            link,
+            servo: ctx.servo.unwrap_or((30.0, 1.0)),
+            h: ctx.h,
+        }),
+        None => Box::new(Backlash::new(v[0])),
+    }
 }
 
 #[cfg(test)]

@@ -297,9 +297,11 @@ impl Servo {
             let tol = 1e-12 * (f0.abs() + d0.abs() + d1.abs());
             (c0 != 0.0 && (f1 - f0).abs() <= tol && (s[1] >= 0.0) == (e[1] >= 0.0)).then_some(e)
         };
-        let end = if c1 == c0 && (s[1] >= 0.0) == (lin[1] >= 0.0) {
+        // A link with play is never linear over a step: always the sub-steps.
+        let play = link.has_play();
+        let end = if !play && c1 == c0 && (s[1] >= 0.0) == (lin[1] >= 0.0) {
             lin
-        } else if let Some(e) = held(limits) {
+        } else if let Some(e) = (!play).then(|| held(limits)).flatten() {
             e
         } else {
             let k: f64 = limits.iter().map(|l| l.stiffness()).sum();
@@ -401,33 +403,20 @@ fn offset(limits: &mut [Box<dyn Effect>], demand: f64, v: f64) -> f64 {
 /// Describing functions already computed, by their exact inputs: fits evaluate the same servo
 /// at the same frequencies and amplitudes many times (once per output, per operating point,
 /// per Jacobian column of a parameter the servo ignores).
-static DF_CACHE: Memo<[u64; 12], Harmonics> = Memo::new(200_000);
+static DF_CACHE: Memo<[u64; 14], Harmonics> = Memo::new(200_000);
 
 /// Forgets every cached describing function (a new campaign or a timed run starts afresh).
 pub fn clear_describing_function_cache() {
     DF_CACHE.clear();
 }
 
-fn cached(key: [f64; 12], compute: impl FnOnce() -> Harmonics) -> Harmonics {
+fn cached(key: [f64; 14], compute: impl FnOnce() -> Harmonics) -> Harmonics {
     DF_CACHE.get_or(key.map(f64::to_bits), compute)
 }
 
-/// First harmonic of the servo position with `limits`, divided by the linear servo's, for a
-/// reference sine of `amplitude` at `omega` (the describing function of a servo effect), and,
-/// from the same run, the servo position's third harmonic over the reference's amplitude
-/// (absolute: the linear servo has none; sin-referenced like every phasor here,
-/// `x_3(t) = Im(X_3 e^{3 j omega t})` for the reference `amplitude sin(omega t)`). The servo
-/// `(omega_n, zeta)` drives `link` if there is one (then the CoM's harmonics, the first over
-/// the linear two-body loop's). `identity` names the limits exactly (effect id and
-/// parameters) for the cache.
-///
-/// The step divides the period exactly (so one period's Fourier sum is exact for a periodic
-/// response) and is about the servo's `h`, lengthened at low frequency to 1/2048 of a period
-/// (at most 2.5 h, and at most [`max_step`] of the limits): the linear part is exact at any
-/// step, and the RK4 sub-steps follow the effects' stiffness.
-/// Both runs use the same step, so the sampling's own small effect on the first harmonic
-/// cancels in the ratio.
-pub fn servo_harmonics(
+/// The steady harmonics of the servo `(omega_n, zeta)` driving `link` with `limits` named by
+/// `identity`, cached.
+fn run_cached(
     (omega_n, zeta): (f64, f64),
     h: f64,
     link: Option<TrunkLink>,
@@ -435,9 +424,11 @@ pub fn servo_harmonics(
     identity: [f64; 3],
     omega: f64,
     amplitude: f64,
-) -> (Complex64, Complex64) {
-    let l = link.map_or([0.0; 4], |l| [l.omega_m, l.zeta_m, l.share, l.drive]);
-    let with = cached(
+) -> Harmonics {
+    let l = link.map_or([0.0; 6], |l| {
+        [l.omega_m, l.zeta_m, l.share, l.drive, l.half_play, l.drag]
+    });
+    cached(
         [
             omega_n,
             zeta,
@@ -451,17 +442,73 @@ pub fn servo_harmonics(
             l[1],
             l[2],
             l[3],
+            l[4],
+            l[5],
         ],
         || first_harmonic(omega_n, zeta, h, link, limits, omega, amplitude, None).0,
+    )
+}
+
+/// First harmonic of the servo position with `limits`, divided by the linear servo's, for a
+/// reference sine of `amplitude` at `omega` (the describing function of a servo effect), and,
+/// from the same run, the servo position's third harmonic over the reference's amplitude
+/// (absolute: the linear servo has none; sin-referenced like every phasor here,
+/// `x_3(t) = Im(X_3 e^{3 j omega t})` for the reference `amplitude sin(omega t)`). The servo
+/// `(omega_n, zeta)` drives `link` if there is one (then the CoM's harmonics, the first over
+/// the linear two-body loop's; over the loop's own run at the same amplitude if the link has
+/// play, whose third harmonic is then taken off: the play's own harmonics are
+/// [`play_harmonics`]). `identity` names the limits exactly (effect id and parameters) for
+/// the cache.
+///
+/// The step divides the period exactly (so one period's Fourier sum is exact for a periodic
+/// response) and is about the servo's `h`, lengthened at low frequency to 1/2048 of a period
+/// (at most 2.5 h, and at most [`max_step`] of the limits): the linear part is exact at any
+/// step, and the RK4 sub-steps follow the effects' stiffness.
+/// Both runs use the same step, so the sampling's own small effect on the first harmonic
+/// cancels in the ratio.
+pub fn servo_harmonics(
+    servo: (f64, f64),
+    h: f64,
+    link: Option<TrunkLink>,
+    limits: &mut [Box<dyn Effect>],
+    identity: [f64; 3],
+    omega: f64,
+    amplitude: f64,
+) -> (Complex64, Complex64) {
+    let with = run_cached(servo, h, link, limits, identity, omega, amplitude);
+    let play = link.is_some_and(|l| l.half_play > 0.0);
+    // The linear servo's response does not depend on the amplitude (run at 1); a play's does.
+    let without = run_cached(
+        servo,
+        h,
+        link,
+        &mut [],
+        [0.0; 3],
+        omega,
+        if play { amplitude } else { 1.0 },
     );
-    // The linear servo's response does not depend on the amplitude.
-    let without = cached(
-        [
-            omega_n, zeta, h, omega, 0.0, 0.0, 0.0, 0.0, l[0], l[1], l[2], l[3],
-        ],
-        || first_harmonic(omega_n, zeta, h, link, &mut [], omega, 1.0, None).0,
-    );
-    (with.first / without.first, with.third)
+    let third = if play {
+        with.third - without.third
+    } else {
+        with.third
+    };
+    (with.first / without.first, third)
+}
+
+/// The harmonics of a servo driving a `link` with play (a backlash inside the servo), over
+/// the rigid servo's: the first harmonic's ratio (the play's describing function, with the
+/// link's own small-signal filter) and the CoM's third harmonic over the reference's
+/// amplitude, as [`servo_harmonics`] gives them for a servo effect.
+pub fn play_harmonics(
+    servo: (f64, f64),
+    h: f64,
+    link: TrunkLink,
+    omega: f64,
+    amplitude: f64,
+) -> (Complex64, Complex64) {
+    let with = run_cached(servo, h, Some(link), &mut [], [0.0; 3], omega, amplitude);
+    let rigid = run_cached(servo, h, None, &mut [], [0.0; 3], omega, 1.0);
+    (with.first / rigid.first, with.third)
 }
 
 /// Periods compared one by one before the general settling takes over.

@@ -37,6 +37,26 @@ pub struct TrunkLink {
     pub share: f64,
     /// Part of the axis's inertia in the drive (moves with the joint, not in the CoM).
     pub drive: f64,
+    /// Half the play of the link (0: none): no force while `|x_J - x_U|` is within it, and
+    /// then the flanks push, never pull (a backlash inside the servo, `backlash.in_servo`).
+    pub half_play: f64,
+    /// Viscous drag of the link's part to the ground, 1/s (a bearing's drag, which lets a
+    /// disengaged load settle in the play).
+    pub drag: f64,
+}
+
+impl TrunkLink {
+    /// A flexible link without play or drag.
+    pub fn flexible(omega_m: f64, zeta_m: f64, share: f64, drive: f64) -> TrunkLink {
+        TrunkLink {
+            omega_m,
+            zeta_m,
+            share,
+            drive,
+            half_play: 0.0,
+            drag: 0.0,
+        }
+    }
 }
 
 /// Smallest inertia fraction of the joint node: a link carrying the whole inertia (share 1,
@@ -58,6 +78,8 @@ pub struct Linked {
     inv_joint: f64,
     wm2: f64,
     cm: f64,
+    half_play: f64,
+    drag: f64,
     /// Exact first-order-hold step of `[x_J, v_J, x_U, v_U]` for the reference.
     phi: [[f64; 4]; 4],
     g0: [f64; 4],
@@ -79,23 +101,35 @@ impl Linked {
         let inv_joint = 1.0 / (1.0 - u);
         let wm2 = link.omega_m * link.omega_m;
         let cm = 2.0 * link.zeta_m * link.omega_m;
-        let (a, b) = system(u, wm2, cm, wn2, two_zeta_wn);
+        let (a, b) = system(u, wm2, cm, link.drag, wn2, two_zeta_wn);
         let (phi, g0, g1) = discretise_foh(&a, &b, h);
         let p = rows(&phi);
         // The chain without the servo's feedback, driven by a force per unit inertia.
-        let (a_free, _) = system(u, wm2, cm, 0.0, 0.0);
+        let (a_free, _) = system(u, wm2, cm, link.drag, 0.0, 0.0);
         let b_free = DVector::from_row_slice(&[0.0, inv_joint, 0.0, 0.0]);
         let (phi_f, g_f, _) = discretise_foh(&a_free, &b_free, h);
-        // Gershgorin: every eigenvalue lies within the largest absolute row sum.
-        let speed = (0..4)
-            .map(|i| (0..4).map(|j| a[(i, j)].abs()).sum::<f64>())
-            .fold(0.0, f64::max);
+        // Gershgorin: every eigenvalue lies within the largest absolute row sum. A play's
+        // link is stiff (a gear's transmission): there the row sums mix positions and
+        // velocities and overstate its rate a hundredfold, and the eigenvalues themselves
+        // bound it (the loop is engaged or the parts move apart, slower).
+        let speed = if link.half_play > 0.0 {
+            a.complex_eigenvalues()
+                .iter()
+                .map(|z| z.norm())
+                .fold(0.0, f64::max)
+        } else {
+            (0..4)
+                .map(|i| (0..4).map(|j| a[(i, j)].abs()).sum::<f64>())
+                .fold(0.0, f64::max)
+        };
         Linked {
             link,
             u,
             inv_joint,
             wm2,
             cm,
+            half_play: link.half_play,
+            drag: link.drag,
             phi: p,
             g0: [g0[0], g0[1], g0[2], g0[3]],
             g1: [g1[0] / h, g1[1] / h, g1[2] / h, g1[3] / h],
@@ -134,17 +168,43 @@ impl Linked {
         out
     }
 
-    /// The link's force per unit link mass.
+    /// Whether the link has play (then its steps are never the linear loop's).
+    #[inline]
+    pub fn has_play(&self) -> bool {
+        self.half_play > 0.0
+    }
+
+    /// The link's force per unit link mass. With play: none in the gap, and beyond it the
+    /// spring and damper on the deflection past the flank, cut to zero where the damper would
+    /// pull the flanks together (contact pushes only).
     #[inline]
     fn spring(&self, s: &[f64; 4]) -> f64 {
-        self.wm2 * (s[0] - s[2]) + self.cm * (s[1] - s[3])
+        let d = s[0] - s[2];
+        if self.half_play > 0.0 {
+            let hp = self.half_play;
+            let e = if d > hp {
+                d - hp
+            } else if d < -hp {
+                d + hp
+            } else {
+                return 0.0;
+            };
+            let f = self.wm2 * e + self.cm * (s[1] - s[3]);
+            return if f * e > 0.0 { f } else { 0.0 };
+        }
+        self.wm2 * d + self.cm * (s[1] - s[3])
     }
 
     /// Accelerations `(x_J'', x_U'')` under the servo force `force` (per unit inertia).
     #[inline]
     pub fn accelerations(&self, s: &[f64; 4], force: f64) -> (f64, f64) {
         let sp = self.spring(s);
-        ((force - self.u * sp) * self.inv_joint, sp)
+        let au = if self.drag > 0.0 {
+            sp - self.drag * s[3]
+        } else {
+            sp
+        };
+        ((force - self.u * sp) * self.inv_joint, au)
     }
 
     /// CoM position, velocity and acceleration of state `s` under `force`.
@@ -176,7 +236,7 @@ impl Linked {
 impl Linked {
     /// The linear loop's continuous state matrix and reference input (for its periodic orbit).
     pub fn system(&self, wn2: f64, two_zeta_wn: f64) -> (DMatrix<f64>, DVector<f64>) {
-        system(self.u, self.wm2, self.cm, wn2, two_zeta_wn)
+        system(self.u, self.wm2, self.cm, self.drag, wn2, two_zeta_wn)
     }
 }
 
@@ -190,15 +250,23 @@ fn rows(m: &DMatrix<f64>) -> [[f64; 4]; 4] {
     p
 }
 
-/// `x' = A x + B r` of the linear loop, state `[x_J, v_J, x_U, v_U]`.
-fn system(u: f64, wm2: f64, cm: f64, wn2: f64, two_zeta_wn: f64) -> (DMatrix<f64>, DVector<f64>) {
+/// `x' = A x + B r` of the linear loop (engaged, if the link has play), state
+/// `[x_J, v_J, x_U, v_U]`; `drag` brakes the link's part.
+fn system(
+    u: f64,
+    wm2: f64,
+    cm: f64,
+    drag: f64,
+    wn2: f64,
+    two_zeta_wn: f64,
+) -> (DMatrix<f64>, DVector<f64>) {
     let ij = 1.0 / (1.0 - u);
     #[rustfmt::skip]
     let a = DMatrix::from_row_slice(4, 4, &[
         0.0, 1.0, 0.0, 0.0,
         -(wn2 + u * wm2) * ij, -(two_zeta_wn + u * cm) * ij, u * wm2 * ij, u * cm * ij,
         0.0, 0.0, 0.0, 1.0,
-        wm2, cm, -wm2, -cm,
+        wm2, cm, -wm2, -cm - drag,
     ]);
     (a, DVector::from_row_slice(&[0.0, wn2 * ij, 0.0, 0.0]))
 }
@@ -207,11 +275,24 @@ fn system(u: f64, wm2: f64, cm: f64, wn2: f64, two_zeta_wn: f64) -> (DMatrix<f64
 /// optional link (without one: the tracking low-pass `H`).
 pub fn joint_response(link: Option<TrunkLink>, wn: f64, zeta: f64, omega: f64) -> Complex64 {
     let s = Complex64::new(0.0, omega);
-    let q = link.map_or(Complex64::new(1.0, 0.0), |l| {
+    // The link's part pulls the joint with `u (x_U'' + drag x_U')`, `x_U = M x_J`.
+    let load = link.map_or(s * s, |l| {
         let u = (l.share * (1.0 - l.drive)).min(1.0 - MIN_JOINT_INERTIA);
-        let (wm2, cm) = (l.omega_m * l.omega_m, 2.0 * l.zeta_m * l.omega_m);
-        let m = (cm * s + wm2) / (s * s + cm * s + wm2);
-        (1.0 - u) + u * m
+        let m = link_transfer(&l, s);
+        s * s * ((1.0 - u) + u * m) + u * l.drag * s * m
     });
-    wn * wn / (s * s * q + 2.0 * zeta * wn * s + wn * wn)
+    wn * wn / (load + 2.0 * zeta * wn * s + wn * wn)
+}
+
+/// `X_U / X_J` of the link (engaged, if it has play).
+fn link_transfer(l: &TrunkLink, s: Complex64) -> Complex64 {
+    let (wm2, cm) = (l.omega_m * l.omega_m, 2.0 * l.zeta_m * l.omega_m);
+    (cm * s + wm2) / (s * s + (cm + l.drag) * s + wm2)
+}
+
+/// The linear loop's CoM response `X_c / R` at `omega` (engaged, if the link has play).
+pub fn com_response(link: TrunkLink, wn: f64, zeta: f64, omega: f64) -> Complex64 {
+    let s = Complex64::new(0.0, omega);
+    let q = (1.0 - link.share) + link.share * link_transfer(&link, s);
+    q * joint_response(Some(link), wn, zeta, omega)
 }
