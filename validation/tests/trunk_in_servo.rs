@@ -116,11 +116,8 @@ fn a_force_limited_servo_driving_a_flexible_trunk_matches_the_independent_robot(
             .iter()
             .filter(|o| {
                 let a = &robot.axes[o.excited.index()];
-                let link = a.modes.first().map(|m| TrunkLink {
-                    omega_m: m.omega,
-                    zeta_m: m.zeta,
-                    share: m.mass_fraction,
-                    drive: a.drive_mass_fraction,
+                let link = a.modes.first().map(|m| {
+                    TrunkLink::flexible(m.omega, m.zeta, m.mass_fraction, a.drive_mass_fraction)
                 });
                 let (wn, z) = (a.servo.omega_n, a.servo.zeta);
                 let xj = joint_response(link, wn, z, o.omega);

@@ -476,10 +476,15 @@ fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     let mut out = Vec::new();
     let n = 5;
     // The second plane's link follows the law the loop chose for the first (`trunk_in_servo`).
+    // A servo drives one link: not where a backlash sits inside it.
     let law = if spec
         .effects
         .iter()
         .any(|e| e.info.kind == "flexible_trunk" && e.value("in_servo") == Some(1.0))
+        && !spec
+            .effects
+            .iter()
+            .any(|e| e.info.kind == "backlash" && e.value("in_servo") == Some(1.0))
     {
         1.0
     } else {
@@ -522,7 +527,9 @@ fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
 pub fn trunk_in_servo(spec: &ModelSpec) -> Option<ModelSpec> {
     let mut out = spec.clone();
     let mut changed = false;
-    for e in &spec.effects {
+    // A servo drives one link: a mode stays a filter where a backlash sits inside the servo.
+    let play_inside = |b: Binding| spec.value("backlash", b, "in_servo") == Some(1.0);
+    for e in spec.effects.iter().filter(|e| !play_inside(e.binding)) {
         match e.info.kind {
             "flexible_trunk" if e.value("in_servo") != Some(1.0) => {
                 out.set_value("flexible_trunk", e.binding, "in_servo", 1.0);
@@ -543,7 +550,16 @@ pub fn trunk_in_servo(spec: &ModelSpec) -> Option<ModelSpec> {
             _ => {}
         }
     }
+    let kept: Vec<_> = spec
+        .effects
+        .iter()
+        .filter(|e| e.info.kind == "structural_mode" && play_inside(e.binding))
+        .cloned()
+        .collect();
     out.remove("structural_mode");
+    for e in kept {
+        out.insert(e);
+    }
     changed.then_some(out)
 }
 
@@ -796,6 +812,42 @@ mod tests {
         assert_eq!(
             v.value("acceleration_saturation", AXES[1], "limit"),
             Some(1.2)
+        );
+    }
+
+    /// A servo drives one link: where a backlash sits inside it, a mode stays a filter (the
+    /// variant would not build), on the other axis it moves in; every variant builds.
+    #[test]
+    fn the_trunk_law_variant_leaves_a_mode_beside_a_play_inside_the_servo() {
+        let mut s = paper_with_limits(1.0, 1.2);
+        add_effect(&mut s, "backlash", &[AXES[0]], &[0.001, 1.0]);
+        add_effect(&mut s, "structural_mode", &AXES, &[12.0, 0.06, 0.3]);
+        let v = trunk_in_servo(&s).expect("the y mode moves");
+        assert_eq!(v.value("structural_mode", AXES[0], "omega_n"), Some(12.0));
+        assert!(v.get("flexible_trunk", AXES[0]).is_none());
+        assert_eq!(v.value("flexible_trunk", AXES[1], "in_servo"), Some(1.0));
+        assert!(zmp_models::Plant::new(&v, 0.001).is_ok());
+        // With the play on both axes there is nothing to move.
+        add_effect(&mut s, "backlash", &[AXES[1]], &[0.001, 1.0]);
+        assert!(trunk_in_servo(&s).is_none());
+    }
+
+    /// A refit moves a play's width, and its drive share only inside the servo; the
+    /// transmission's shape stays the model file's.
+    #[test]
+    fn a_refit_frees_the_drive_share_of_a_play_inside_the_servo_only() {
+        let mut s = paper_with_limits(1.0, 1.2);
+        add_effect(&mut s, "backlash", &[AXES[0]], &[0.001, 1.0]);
+        add_effect(&mut s, "backlash", &[AXES[1]], &[0.001]);
+        let frees: Vec<String> = super::super::engine::structure_frees(&s)
+            .iter()
+            .filter(|f| f.kind == "backlash")
+            .map(|f| f.name())
+            .collect();
+        assert_eq!(
+            frees,
+            ["backlash.x.width", "backlash.x.drive", "backlash.y.width"],
+            "{frees:?}"
         );
     }
 

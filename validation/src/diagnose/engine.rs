@@ -132,6 +132,16 @@ pub fn structure_frees(spec: &ModelSpec) -> Vec<Free> {
             if p.name == "v_s" || p.name == "in_servo" {
                 continue;
             }
+            // A play on the command has its width only; inside the servo its drive share is
+            // fitted too, and the shape of its transmission (mode, damping, drag: the ringing
+            // of the impacts, which a ZMP's first and third harmonics barely resolve) is the
+            // model file's.
+            if e.info.kind == "backlash"
+                && p.name != "width"
+                && (p.name != "drive" || e.value("in_servo") != Some(1.0))
+            {
+                continue;
+            }
             let Some(&v) = e.values.get(k) else { continue };
             // A saturation's passive damping is the user's to set, not the diagnosis's to
             // search. Free in every refit, on development seeds 1-60, it closed 4 more

@@ -393,7 +393,7 @@ pub fn sentence(
         }
         "backlash" | "coulomb_friction" => {
             let what = if effect == "backlash" {
-                "a dead band in the CoM command (backlash)"
+                "a play the drive must cross before the CoM moves (backlash)"
             } else {
                 "Coulomb friction decelerating the CoM"
             };
