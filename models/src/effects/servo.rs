@@ -284,24 +284,44 @@ impl Servo {
         } else {
             self.c_end
         };
-        let lin = link.linear(&s, r0 + c0 / self.wn2, dr);
-        let c1 = offset(limits, self.demand(r, lin[0], lin[1]), lin[1]);
-        // The force held at a limit: the chain under that constant force, exactly, if the
-        // servo effects still give it at the step's end with the velocity's sign kept.
-        let held = |limits: &mut [Box<dyn Effect>]| {
+        // With play, the loop engaged on one flank is the linear loop with the trunk's
+        // position shifted by the half play ([`Linked::flank`]): the exact steps below hold
+        // while it stays on that flank; in the gap, or where the flanks part, the sub-steps.
+        let play = link.has_play();
+        let flank = link.flank(&s);
+        let shift = |y: &[f64; 4], o: f64| -> [f64; 4] {
+            if play {
+                [y[0], y[1], y[2] + o, y[3]]
+            } else {
+                *y
+            }
+        };
+        let unshift = |mut y: [f64; 4], o: f64| -> [f64; 4] {
+            if play {
+                y[2] -= o;
+            }
+            y
+        };
+        let stays = |y: &[f64; 4]| !play || link.flank(y) == flank;
+        let exact = flank.and_then(|o| {
+            let lin = unshift(link.linear(&shift(&s, o), r0 + c0 / self.wn2, dr), o);
+            let c1 = offset(limits, self.demand(r, lin[0], lin[1]), lin[1]);
+            if c1 == c0 && (s[1] >= 0.0) == (lin[1] >= 0.0) && stays(&lin) {
+                return Some(lin);
+            }
+            // The force held at a limit: the chain under that constant force, exactly, if
+            // the servo effects still give it at the step's end with the velocity's sign
+            // kept.
             let d0 = self.demand(r0, s[0], s[1]);
             let f0 = d0 + c0;
-            let e = link.free(&s, f0);
+            let e = unshift(link.free(&shift(&s, o), f0), o);
             let d1 = self.demand(r, e[0], e[1]);
             let f1 = d1 + offset(limits, d1, e[1]);
             let tol = 1e-12 * (f0.abs() + d0.abs() + d1.abs());
-            (c0 != 0.0 && (f1 - f0).abs() <= tol && (s[1] >= 0.0) == (e[1] >= 0.0)).then_some(e)
-        };
-        // A link with play is never linear over a step: always the sub-steps.
-        let play = link.has_play();
-        let end = if !play && c1 == c0 && (s[1] >= 0.0) == (lin[1] >= 0.0) {
-            lin
-        } else if let Some(e) = (!play).then(|| held(limits)).flatten() {
+            (c0 != 0.0 && (f1 - f0).abs() <= tol && (s[1] >= 0.0) == (e[1] >= 0.0) && stays(&e))
+                .then_some(e)
+        });
+        let end = if let Some(e) = exact {
             e
         } else {
             let k: f64 = limits.iter().map(|l| l.stiffness()).sum();

@@ -174,6 +174,27 @@ impl Linked {
         self.half_play > 0.0
     }
 
+    /// Where the loop is the linear one: the shift of the link's part's position that makes
+    /// the loop engaged on one flank (contact pushing) the linear loop, `+-half_play`; `None`
+    /// in the gap or where the flanks part. `Some(0.0)` without play (always linear).
+    #[inline]
+    pub fn flank(&self, s: &[f64; 4]) -> Option<f64> {
+        let hp = self.half_play;
+        if hp <= 0.0 {
+            return Some(0.0);
+        }
+        let d = s[0] - s[2];
+        let (e, shift) = if d > hp {
+            (d - hp, hp)
+        } else if d < -hp {
+            (d + hp, -hp)
+        } else {
+            return None;
+        };
+        let f = self.wm2 * e + self.cm * (s[1] - s[3]);
+        (f * e > 0.0).then_some(shift)
+    }
+
     /// The link's force per unit link mass. With play: none in the gap, and beyond it the
     /// spring and damper on the deflection past the flank, cut to zero where the damper would
     /// pull the flanks together (contact pushes only).
