@@ -39,8 +39,8 @@ pub const EXPLAINED_RATIO: f64 = 1.5;
 /// chi-square is 7 per component. Clean saturating robots of the independent simulator come
 /// out at 1.15-1.73 (coloured noise the record's variance only estimates), and robots with
 /// backlash at 3.2-4.4 once the loop has found it (that simulator's play sits in a compliant,
-/// dragged transmission the catalogue's dead band lacks): at 3 the loop went on to add a mode
-/// to three of those development draws, so 5.
+/// dragged transmission the diagnosis's play on the command lacks): at 3 the loop went on to
+/// add a mode to three of those development draws, so 5.
 pub const EXPLAINED_CHI2_PER_COMPONENT: f64 = 5.0;
 
 /// Iterations: the own parameters (with the linear core) from each start, then everything
