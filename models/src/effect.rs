@@ -143,6 +143,14 @@ pub struct BuildContext {
 /// A cross-parameter check: `Err((index of the offending parameter, message))`.
 pub type Validate = fn(&[f64]) -> Result<(), (usize, String)>;
 
+/// The check of a parameter `k` that switches between two laws: 0 (`off`) or 1 (`on`).
+pub fn check_switch(v: &[f64], k: usize, off: &str, on: &str) -> Result<(), (usize, String)> {
+    match v.get(k) {
+        Some(x) if *x != 0.0 && *x != 1.0 => Err((k, format!("{x}: 0 ({off}) or 1 ({on})"))),
+        _ => Ok(()),
+    }
+}
+
 /// The static description of an effect kind: one entry of the [`REGISTRY`].
 pub struct EffectInfo {
     /// Stable name used in model files, diagnosis JSON and FMU variables.

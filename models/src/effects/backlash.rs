@@ -18,7 +18,7 @@
 //!   steps the two bodies ([`crate::effects::servo_link`], one link per axis: not with a
 //!   flexible trunk `in_servo`); the describing functions simulate that loop.
 
-use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
+use crate::effect::{check_switch, BuildContext, Effect, EffectInfo, ParamSpec, Site};
 use crate::effects::servo::play_harmonics;
 use crate::effects::servo_link::{com_response, TrunkLink};
 use crate::effects::tracking_lowpass::TrackingLowpass;
@@ -77,16 +77,12 @@ pub static PARAMS: [ParamSpec; 6] = [
 
 /// `in_servo` is a switch between two laws, 0 or 1.
 fn validate(v: &[f64]) -> Result<(), (usize, String)> {
-    match v.get(1) {
-        Some(x) if *x != 0.0 && *x != 1.0 => Err((
-            1,
-            format!(
-                "{x}: 0 (a play on the CoM command before the servo) or 1 (the play between \
-                 drive and trunk, inside the servo's loop)"
-            ),
-        )),
-        _ => Ok(()),
-    }
+    check_switch(
+        v,
+        1,
+        "a play on the CoM command before the servo",
+        "the play between drive and trunk, inside the servo's loop",
+    )
 }
 
 pub static INFO: EffectInfo = EffectInfo {

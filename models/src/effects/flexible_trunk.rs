@@ -20,7 +20,7 @@
 //! the ZMP measurement instead (`structural_mode`), the mode does not feed back into the
 //! servo.
 
-use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
+use crate::effect::{check_switch, BuildContext, Effect, EffectInfo, ParamSpec, Site};
 use crate::lti::{Poly, TransferFunction};
 use crate::lti_effect::LtiEffect;
 
@@ -55,16 +55,12 @@ pub static PARAMS: [ParamSpec; 5] = [
 
 /// `in_servo` is a switch between two laws, 0 or 1.
 fn validate(v: &[f64]) -> Result<(), (usize, String)> {
-    match v.get(4) {
-        Some(x) if *x != 0.0 && *x != 1.0 => Err((
-            4,
-            format!(
-                "{x}: 0 (a filter of the CoM reference before the servo) or 1 (stepped inside \
-                 the servo's loop)"
-            ),
-        )),
-        _ => Ok(()),
-    }
+    check_switch(
+        v,
+        4,
+        "a filter of the CoM reference before the servo",
+        "stepped inside the servo's loop",
+    )
 }
 
 pub static INFO: EffectInfo = EffectInfo {
