@@ -185,64 +185,78 @@ fn a_force_limited_servo_driving_a_flexible_trunk_matches_the_independent_robot(
     readme_section("trunk-in-servo", &summary);
 }
 
-/// The loop on development seed 23 (a trunk mode on each plane, 12.5 and 27.2 rad/s, the limit
-/// acting on the fast, large records): its rounds name the x mode but, stepped as a filter, it
-/// stayed at 24.7x the noise floor. The loop then tries the mode inside the servo's loop,
-/// every parameter refitted, keeps it only because it fits better, and diagnoses again. It
-/// must end within 2x the floor with its modes inside the servo. Thresholds fixed before the
-/// run (a first version, with no round after the law, ended at 2.13x: the y mode unnamed).
+/// The loop on development seeds 23 and 14 (a trunk mode on each plane, the limit acting on
+/// the fast, large records). On seed 23 (12.5 and 27.2 rad/s) its rounds name the x mode but,
+/// stepped as a filter, it stayed at 24.7x the noise floor. On seed 14 (30.3 and 24.8 rad/s,
+/// damping 0.07) the filter fit ran to its damping bound (0.001) with the y link at 19 rad/s
+/// and a tenth of the mass, and the law refitted from those values stayed there (the loop ended
+/// unexplained at 1.56x); the law is now also fitted from typical links
+/// (`candidates::trunk_law_starts`). In both the loop tries the modes inside the servo's loop,
+/// every parameter refitted, keeps them only because they fit better, and diagnoses again. It
+/// must end within 2x the floor with its modes inside the servo, and seed 14, whose filter was
+/// already close, explained. Thresholds fixed before the runs (seed 23: a first version, with
+/// no round after the law, ended at 2.13x, the y mode unnamed; seed 14: the suite's closure
+/// rule, 2x and explained, against 1.11x measured when the starts were added).
 #[test]
 fn the_loop_moves_a_mode_the_filter_cannot_explain_inside_the_servo() {
-    let r = indep_loop::loop_on(23, SCENARIO);
-    let changes: Vec<&str> = r.versions.iter().map(|(_, a)| a.change.as_str()).collect();
     let law = zmp_validation::diagnose::iterate::TRUNK_IN_SERVO;
-    eprintln!(
-        "versions {changes:?}; found {:?}; {:.2}x the floor at the end",
-        r.found,
-        r.final_error / r.noise_floor
-    );
-    let first = &r
-        .versions
-        .iter()
-        .find(|(_, a)| a.change == law)
-        .unwrap_or_else(|| panic!("no {law} version: {changes:?}"))
-        .1;
-    assert!(
-        first.error_before > 3.0 * r.noise_floor,
-        "the filter law was already close: {:.2}x the floor",
-        first.error_before / r.noise_floor
-    );
-    assert!(
-        first.error_after < 0.5 * first.error_before,
-        "the law removed little: {:.4} -> {:.4}",
-        first.error_before,
-        first.error_after
-    );
-    let trunks: Vec<_> = r
-        .final_model
-        .effects
-        .iter()
-        .filter(|e| e.info.kind == "flexible_trunk")
-        .collect();
-    assert!(
-        !trunks.is_empty() && !r.final_model.has("structural_mode"),
-        "{}",
-        r.final_model.to_toml()
-    );
-    assert!(
-        trunks.iter().all(|e| e.value("in_servo") == Some(1.0)),
-        "{}",
-        r.final_model.to_toml()
-    );
-    assert!(
-        r.final_error < 2.0 * r.noise_floor,
-        "after the law: {:.2}x the floor",
-        r.final_error / r.noise_floor
-    );
-    readme_section(
-        "trunk-in-servo-loop",
-        &format!(
-            "- development seed 23: versions {}; the first mode as a filter left {:.1}x the \
+    let mut summary = String::new();
+    for seed in [23, 14] {
+        let r = indep_loop::loop_on(seed, SCENARIO);
+        let changes: Vec<&str> = r.versions.iter().map(|(_, a)| a.change.as_str()).collect();
+        eprintln!(
+            "seed {seed}: versions {changes:?}; found {:?}; {:.2}x the floor at the end",
+            r.found,
+            r.final_error / r.noise_floor
+        );
+        let first = &r
+            .versions
+            .iter()
+            .find(|(_, a)| a.change == law)
+            .unwrap_or_else(|| panic!("seed {seed}: no {law} version: {changes:?}"))
+            .1;
+        if seed == 23 {
+            assert!(
+                first.error_before > 3.0 * r.noise_floor,
+                "the filter law was already close: {:.2}x the floor",
+                first.error_before / r.noise_floor
+            );
+            assert!(
+                first.error_after < 0.5 * first.error_before,
+                "the law removed little: {:.4} -> {:.4}",
+                first.error_before,
+                first.error_after
+            );
+        } else {
+            assert!(
+                r.explained,
+                "seed {seed}: unexplained at {:.2}x the floor",
+                r.final_error / r.noise_floor
+            );
+        }
+        let trunks: Vec<_> = r
+            .final_model
+            .effects
+            .iter()
+            .filter(|e| e.info.kind == "flexible_trunk")
+            .collect();
+        assert!(
+            !trunks.is_empty() && !r.final_model.has("structural_mode"),
+            "seed {seed}: {}",
+            r.final_model.to_toml()
+        );
+        assert!(
+            trunks.iter().all(|e| e.value("in_servo") == Some(1.0)),
+            "seed {seed}: {}",
+            r.final_model.to_toml()
+        );
+        assert!(
+            r.final_error < 2.0 * r.noise_floor,
+            "seed {seed}: after the law: {:.2}x the floor",
+            r.final_error / r.noise_floor
+        );
+        summary.push_str(&format!(
+            "- development seed {seed}: versions {}; the first mode as a filter left {:.2}x the \
              noise floor, inside the servo {:.2}x; at the end {:.2}x ({}), effects found: {}.\n",
             changes.join(", "),
             first.error_before / r.noise_floor,
@@ -254,8 +268,9 @@ fn the_loop_moves_a_mode_the_filter_cannot_explain_inside_the_servo() {
                 "unexplained"
             },
             r.found.join(", ")
-        ),
-    );
+        ));
+    }
+    readme_section("trunk-in-servo-loop", &summary);
 }
 
 fn range(seed: u64) -> &'static str {

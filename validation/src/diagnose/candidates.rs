@@ -563,6 +563,38 @@ pub fn trunk_in_servo(spec: &ModelSpec) -> Option<ModelSpec> {
     changed.then_some(out)
 }
 
+/// Starts of a model whose links were just moved inside their servo ([`trunk_in_servo`]):
+/// `alt` itself (the filter's values), and typical links (damping 0.08, a third of the axis's
+/// inertia in the drive, four tenths of its mass on the link) at the filter's frequency and
+/// at the upper three of the mode candidate's starting frequencies. A filter fit that ran to
+/// its damping or drive bound, or settled on a wrong frequency because the filter cannot
+/// follow the records the force limit clips, is no start for the law inside the servo
+/// (development seed 14: y at 19 rad/s, damping 0.001, against a drawn 24.8 rad/s and 0.07).
+pub fn trunk_law_starts(alt: &ModelSpec, r: &DataRange) -> Vec<ModelSpec> {
+    let trunks: Vec<Binding> = alt
+        .effects
+        .iter()
+        .filter(|e| e.info.kind == "flexible_trunk")
+        .map(|e| e.binding)
+        .collect();
+    let typical = |omega: Option<f64>| {
+        let mut s = alt.clone();
+        for &b in &trunks {
+            if let Some(w) = omega {
+                s.set_value("flexible_trunk", b, "omega_n", w);
+                s.set_value("flexible_trunk", b, "share", 0.4);
+            }
+            s.set_value("flexible_trunk", b, "zeta", 0.08);
+            s.set_value("flexible_trunk", b, "drive", 0.3);
+        }
+        s
+    };
+    let n = 5;
+    let mut out = vec![alt.clone(), typical(None)];
+    out.extend((n - 3..n).map(|k| typical(Some(mode_start(r, k, n)))));
+    out
+}
+
 /// Upper bound of a structural mode's damping ratio in the fit: a resonance (peak gain
 /// `1/(2 zeta sqrt(1 - zeta^2))` = 1.36 at 0.4; none above 0.71). At 0.5 a random 15 %
 /// perturbation of G11 outside the catalogue was fitted as a mode of damping 0.43 once the
@@ -813,6 +845,48 @@ mod tests {
             v.value("acceleration_saturation", AXES[1], "limit"),
             Some(1.2)
         );
+    }
+
+    /// The law's starts: the variant itself first, then typical links (damping 0.08, drive
+    /// 0.3) at the variant's frequencies and at the top three mode starts, every one inside
+    /// the servo with the rest of the model untouched.
+    #[test]
+    fn the_trunk_law_starts_undo_a_filter_fit_at_its_bounds() {
+        let mut s = paper_with_limits(1.0, 1.2);
+        add_effect(&mut s, "structural_mode", &[AXES[0]], &[31.0, 0.005, 0.25]);
+        add_effect(&mut s, "structural_mode", &[AXES[1]], &[19.0, 0.005, 0.09]);
+        let alt = trunk_in_servo(&s).expect("a variant");
+        let r = range();
+        let starts = trunk_law_starts(&alt, &r);
+        assert_eq!(starts.len(), 5);
+        assert_eq!(starts[0].to_toml(), alt.to_toml());
+        let tops: Vec<f64> = (2..5).map(|k| mode_start(&r, k, 5)).collect();
+        assert!(tops.windows(2).all(|w| w[1] > w[0]) && tops[2] > r.omega_max);
+        for (k, st) in starts.iter().enumerate().skip(1) {
+            for (b, wn, share) in [(AXES[0], 31.0, 0.25), (AXES[1], 19.0, 0.09)] {
+                let val = |p| st.value("flexible_trunk", b, p).unwrap();
+                let (w, sh) = if k == 1 {
+                    (wn, share)
+                } else {
+                    (tops[k - 2], 0.4)
+                };
+                assert_eq!(
+                    [
+                        val("omega_n"),
+                        val("zeta"),
+                        val("share"),
+                        val("drive"),
+                        val("in_servo")
+                    ],
+                    [w, 0.08, sh, 0.3, 1.0],
+                    "start {k}"
+                );
+            }
+            assert_eq!(
+                st.value("acceleration_saturation", AXES[1], "limit"),
+                Some(1.2)
+            );
+        }
     }
 
     /// A servo drives one link: where a backlash sits inside it, a mode stays a filter (the

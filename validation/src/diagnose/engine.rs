@@ -532,6 +532,31 @@ pub fn refit_all(base: &ModelSpec, obs: &[&Observation]) -> Option<Fitted> {
         .or(Some(best))
 }
 
+/// [`refit_all`] from the best of `starts`: each is first fitted with the core and the
+/// parameters of the effects `kinds` freed (an effect whose law just changed: its values under
+/// the old law are no fit of the new one), one fit per start, no variants.
+pub fn refit_all_from(
+    starts: &[ModelSpec],
+    kinds: &[&str],
+    obs: &[&Observation],
+) -> Option<Fitted> {
+    let best = starts
+        .iter()
+        .filter_map(|s| {
+            let mut frees = core_frees(s, true);
+            frees.extend(
+                structure_frees(s)
+                    .into_iter()
+                    .filter(|f| kinds.contains(&f.kind)),
+            );
+            fit_from(s, &frees, 0, obs, ITERS_OWN)
+        })
+        .min_by(|a, b| a.cost.total_cmp(&b.cost))?;
+    refit_all(&best.spec, obs)
+        .filter(|f| f.cost <= best.cost)
+        .or(Some(best))
+}
+
 /// Scores of `spec` as it is on `obs`.
 pub fn evaluate(
     spec: &ModelSpec,

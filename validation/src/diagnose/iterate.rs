@@ -4,7 +4,7 @@
 //! the data or nothing significant is left. `cargo xtask loop` writes what this returns.
 
 use super::augment::{version_from_diagnosis, Augmented};
-use super::candidates::trunk_in_servo;
+use super::candidates::{trunk_in_servo, trunk_law_starts, DataRange};
 use super::engine::{self, evaluate};
 use super::measure::{aggregate, chi2_total, components, predict, score, Prediction};
 use super::observe::Observation;
@@ -194,7 +194,10 @@ pub const TRUNK_IN_SERVO: &str = "trunk-in-servo";
 /// nothing (and after the last), only on a model with such a mode that does not explain the
 /// data: searched as a law of every mode candidate it named modes for the compliant
 /// transmission of a backlash (development seed 11) and made the describing functions of
-/// friction several times slower.
+/// friction several times slower. The law is fitted from the filter's values and from typical
+/// links ([`trunk_law_starts`], the best start after one fit each, then everything refitted
+/// from it): a filter fit can run to its damping bound at a wrong frequency where the force
+/// limit clips the records (development seed 14).
 fn trunk_law(
     current: &ModelSpec,
     obs: &[&Observation],
@@ -211,7 +214,8 @@ fn trunk_law(
         return Ok(None);
     }
     progress("trying the trunk inside its servo");
-    let Some(fitted) = engine::refit_all(&alt, obs) else {
+    let starts = trunk_law_starts(&alt, &DataRange::of(obs));
+    let Some(fitted) = engine::refit_all_from(&starts, &["flexible_trunk"], obs) else {
         return Ok(None);
     };
     let (chi_now, err_now) = total(&now);
