@@ -65,8 +65,11 @@ use zmp_validation::par::parallel_map;
 /// effect 9/52; then examined: 1010005 and 1010014, sensor low-passes named as a mode and a
 /// delay, which led to a delay and a low-pass with one value per axis); from 1020000 (run
 /// once on the code of a1cfb1c, that per-axis fit in: singles 21/21, saturation and coupling
-/// 6/6, pairs 7/12, triples 3/3, clean 10/10, outside 5/8, closed 42/52, false effect 6/52).
-const HELD_OUT_FIRST_SEED: u64 = 1_030_000;
+/// 6/6, pairs 7/12, triples 3/3, clean 10/10, outside 5/8, closed 42/52, false effect 6/52);
+/// from 1030000 (run once on the code of a4ed5ef, the trunk law fitted from typical links
+/// too: singles 19/21, saturation and coupling 6/6, pairs 9/12, triples 1/3, clean 10/10,
+/// outside 4/8, closed 41/52, false effect 6/52).
+const HELD_OUT_FIRST_SEED: u64 = 1_040_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
