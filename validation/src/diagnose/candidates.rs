@@ -470,11 +470,15 @@ fn structural_mode(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     out
 }
 
+/// Starting frequencies of a flexible trunk ([`mode_start`] of this many): the candidate's and
+/// the trunk law's ([`trunk_law_starts`]).
+const TRUNK_STARTS: usize = 5;
+
 /// The flexible-trunk form of a structural mode: per input axis, a share of the mass on a
 /// lightly damped link inside the servo loop.
 fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     let mut out = Vec::new();
-    let n = 5;
+    let n = TRUNK_STARTS;
     // The second plane's link follows the law the loop chose for the first (`trunk_in_servo`).
     // A servo drives one link: not where a backlash sits inside it.
     let law = if spec
@@ -589,7 +593,7 @@ pub fn trunk_law_starts(alt: &ModelSpec, r: &DataRange) -> Vec<ModelSpec> {
         }
         s
     };
-    let n = 5;
+    let n = TRUNK_STARTS;
     let mut out = vec![alt.clone(), typical(None)];
     out.extend((n - 3..n).map(|k| typical(Some(mode_start(r, k, n)))));
     out
@@ -860,7 +864,8 @@ mod tests {
         let starts = trunk_law_starts(&alt, &r);
         assert_eq!(starts.len(), 5);
         assert_eq!(starts[0].to_toml(), alt.to_toml());
-        let tops: Vec<f64> = (2..5).map(|k| mode_start(&r, k, 5)).collect();
+        let n = TRUNK_STARTS;
+        let tops: Vec<f64> = (n - 3..n).map(|k| mode_start(&r, k, n)).collect();
         assert!(tops.windows(2).all(|w| w[1] > w[0]) && tops[2] > r.omega_max);
         for (k, st) in starts.iter().enumerate().skip(1) {
             for (b, wn, share) in [(AXES[0], 31.0, 0.25), (AXES[1], 19.0, 0.09)] {
