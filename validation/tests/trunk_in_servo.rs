@@ -273,6 +273,43 @@ fn the_loop_moves_a_mode_the_filter_cannot_explain_inside_the_servo() {
     readme_section("trunk-in-servo-loop", &summary);
 }
 
+/// Seed 1030030 of the spent held-out range: a mode on each trunk plane (12.1 and 18.6 rad/s)
+/// and an 18 ms delay. The loop named both modes as filters and the limit, and ended at 0.90x
+/// the noise floor but unexplained: the fastest 8 mm records' cells 4.7x their floor, the
+/// delay absorbed into a slower servo (23 rad/s against the drawn 33). Inside the servo, with
+/// the links' values alone refitted from each start, the law stayed above the filter
+/// (chi-square 16.7 against 1.9 per component): the force limit acts on another force under
+/// the new law and its value was not refitted. With it refitted the law is 1.4 per component,
+/// no cell significant, at 1.13x the floor; the error had to fall too, so it was not taken.
+/// It is now refitted from every start, and a law that explains the data where the filter
+/// does not is taken. Thresholds are the suite's closure rule (explained, within 2x).
+#[test]
+fn a_law_that_explains_the_data_is_taken_though_its_error_is_higher() {
+    let r = indep_loop::loop_on(1_030_030, "pair:structural_mode,time_delay");
+    let changes: Vec<&str> = r.versions.iter().map(|(_, a)| a.change.as_str()).collect();
+    assert!(
+        changes.contains(&zmp_validation::diagnose::iterate::TRUNK_IN_SERVO),
+        "versions {changes:?}"
+    );
+    assert!(
+        r.explained,
+        "unexplained at {:.2}x the floor; versions {changes:?}",
+        r.final_error / r.noise_floor
+    );
+    assert!(r.final_error < 2.0 * r.noise_floor);
+    let trunks: Vec<_> = r
+        .final_model
+        .effects
+        .iter()
+        .filter(|e| e.info.kind == "flexible_trunk")
+        .collect();
+    assert!(
+        trunks.len() == 2 && trunks.iter().all(|e| e.value("in_servo") == Some(1.0)),
+        "{}",
+        r.final_model.to_toml()
+    );
+}
+
 fn range(seed: u64) -> &'static str {
     if seed < 900_000 {
         "development"
