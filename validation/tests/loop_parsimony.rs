@@ -9,12 +9,13 @@
 //!   friction are now named only when the small sines respond less or later beyond the noise
 //!   (`evidence::amplitude_dependence`).
 //!
-//! And one where it named too little: seed 970010 of the spent held-out range, play alone on
+//! And two where it named too little: seed 970010 of the spent held-out range, play alone on
 //! a saturating robot. The play took the held-out error from 1.6x to 1.3x the noise floor
 //! (more than half the excess error) but removed only 6 % of the excess chi-square, which the
 //! few lowest-noise records dominate with a misfit of something else; the search's test
 //! asked for 10 % and the loop ended at 2.7x with nothing found. The test now also takes half
-//! of the excess error (`select::MIN_ERROR_FRACTION`).
+//! of the excess error (`select::MIN_ERROR_FRACTION`). The other, seed 1030039, lost a delay
+//! to a structural mode in the swap pass (below).
 
 #[path = "support/indep_loop.rs"]
 mod indep_loop;
@@ -74,4 +75,23 @@ fn an_effect_that_removes_most_of_the_error_is_taken_though_the_chi_square_is_el
         r.final_error / r.noise_floor
     );
     assert!(r.identified_error > 2.0 * r.noise_floor);
+}
+
+/// Seed 1030039 of the spent held-out range: a 76 ms delay beside play and sensor drift. The
+/// search named the drift, the delay and the play; the swap pass then put a structural mode in
+/// the delay's place for a held-out chi-square 3 % lower (2489 against 2574) and the delay was
+/// lost. A more complex effect now takes another's place only by more than the tie slack by
+/// which a simpler one wins (`select::swap`). Every effect must be found and nothing else.
+#[test]
+fn a_delay_is_not_swapped_for_a_mode_that_fits_a_little_better() {
+    let r = loop_on(1_030_039, "triple:time_delay,backlash,sensor_drift");
+    for truth in ["time_delay", "backlash", "sensor_drift"] {
+        assert!(r.found.iter().any(|f| f == truth), "found {:?}", r.found);
+    }
+    assert!(
+        !r.found.iter().any(|f| f == "structural_mode"),
+        "found {:?}",
+        r.found
+    );
+    assert!(r.final_error < 2.0 * r.noise_floor);
 }
