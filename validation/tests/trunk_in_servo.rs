@@ -234,12 +234,7 @@ fn the_loop_moves_a_mode_the_filter_cannot_explain_inside_the_servo() {
                 r.final_error / r.noise_floor
             );
         }
-        let trunks: Vec<_> = r
-            .final_model
-            .effects
-            .iter()
-            .filter(|e| e.info.kind == "flexible_trunk")
-            .collect();
+        let trunks = trunks(&r.final_model);
         assert!(
             !trunks.is_empty() && !r.final_model.has("structural_mode"),
             "seed {seed}: {}",
@@ -297,17 +292,20 @@ fn a_law_that_explains_the_data_is_taken_though_its_error_is_higher() {
         r.final_error / r.noise_floor
     );
     assert!(r.final_error < 2.0 * r.noise_floor);
-    let trunks: Vec<_> = r
-        .final_model
-        .effects
-        .iter()
-        .filter(|e| e.info.kind == "flexible_trunk")
-        .collect();
+    let trunks = trunks(&r.final_model);
     assert!(
         trunks.len() == 2 && trunks.iter().all(|e| e.value("in_servo") == Some(1.0)),
         "{}",
         r.final_model.to_toml()
     );
+}
+
+/// The flexible trunks of a model.
+fn trunks(m: &ModelSpec) -> Vec<&zmp_models::EffectInstance> {
+    m.effects
+        .iter()
+        .filter(|e| e.info.kind == "flexible_trunk")
+        .collect()
 }
 
 fn range(seed: u64) -> &'static str {

@@ -193,9 +193,9 @@ pub const TRUNK_IN_SERVO: &str = "trunk-in-servo";
 /// it explains the data (the current model does not): the two have the same parameters, so
 /// the better fit is the better law. The error alone can rise where the chi-square falls: the
 /// filter law of held-out draw 1030030 (a mode and a delay) was at 0.90x the noise floor with
-/// cells of the fastest records 4.7x theirs; inside the servo 1.13x with none significant. Tried when a round adds
-/// nothing (and after the last), only on a model with such a mode that does not explain the
-/// data: searched as a law of every mode candidate it named modes for the compliant
+/// cells of the fastest records 4.7x theirs; inside the servo 1.13x with none significant.
+/// Tried when a round adds nothing (and after the last), only on a model with such a mode
+/// that does not explain the data: searched as a law of every mode candidate it named modes for the compliant
 /// transmission of a backlash (development seed 11) and made the describing functions of
 /// friction several times slower. The law is fitted from the filter's values and from typical
 /// links ([`trunk_law_starts`], the best start after one fit each, then everything refitted
