@@ -149,6 +149,12 @@ fn drive_simple(bytes: &[u8], parser: &mut Parser) -> Result<(), CampaignError> 
     let mut line = 1;
     while start < bytes.len() {
         if parser.header_line.is_some() {
+            if let Some(order) = parser.plain_layout() {
+                (start, line) = parser.plain_rows(bytes, start, line, order);
+                if start >= bytes.len() {
+                    break;
+                }
+            }
             if let Some(next) = parser.fast_row(bytes, start, line) {
                 start = next;
                 line += 1;
@@ -401,6 +407,75 @@ impl<'a> Parser<'a> {
         Ok(())
     }
 
+    /// The column of each cell when the header names exactly the five required columns (in
+    /// any order) and nothing else: the common layout, which [`Parser::plain_rows`] reads.
+    fn plain_layout(&self) -> Option<[usize; 5]> {
+        if self.slots.len() != 5 {
+            return None;
+        }
+        let mut order = [0; 5];
+        for (o, slot) in order.iter_mut().zip(&self.slots) {
+            match *slot {
+                Slot::Required(k) => *o = k,
+                _ => return None,
+            }
+        }
+        Some(order)
+    }
+
+    /// [`Parser::fast_row`] for the plain layout, row after row without per-cell dispatch:
+    /// parses rows from `bytes[start]` (line `line`) while each is five decimals that
+    /// [`fast_f64`] takes, separated by commas and ended by a line end or the end of the file;
+    /// returns where the first row it did not take starts and its line (the general path
+    /// then reads that row, blank lines and errors included).
+    fn plain_rows(
+        &mut self,
+        bytes: &[u8],
+        mut start: usize,
+        mut line: usize,
+        order: [usize; 5],
+    ) -> (usize, usize) {
+        let first_row = self.n;
+        let first_line = line;
+        'rows: while start < bytes.len() {
+            let mut p = start;
+            let mut row = [0.0f64; 5];
+            for (j, v) in row.iter_mut().enumerate() {
+                let Some((x, len)) = fast_f64_prefix(&bytes[p..]) else {
+                    break 'rows;
+                };
+                *v = x;
+                p += len;
+                if j < 4 {
+                    if bytes.get(p) != Some(&b',') {
+                        break 'rows;
+                    }
+                    p += 1;
+                }
+            }
+            p += match bytes.get(p) {
+                None => 0,
+                Some(b'\n') => 1,
+                Some(b'\r') if bytes.get(p + 1) == Some(&b'\n') => 2,
+                _ => break 'rows,
+            };
+            for (&k, &v) in order.iter().zip(&row) {
+                self.cols[k].push(v);
+            }
+            start = p;
+            line += 1;
+        }
+        let taken = line - first_line;
+        if taken > 0 {
+            self.lines.push(first_row, first_line);
+            // Consecutive lines: one anchor covers them all (see `LineMap::push`).
+            self.lines.next_expected = line;
+            self.last_line = line - 1;
+            self.n += taken;
+        }
+        (start, line)
+    }
+
     /// Parses the data row that starts at `bytes[start]` if every cell to keep is a plain
     /// decimal that [`fast_f64`] takes, the row has exactly the header's cell count and it ends
     /// with `\n`, `\r\n` or the end of the file; returns where the next line starts. Otherwise
@@ -546,10 +621,69 @@ fn fast_f64(s: &[u8]) -> Option<f64> {
 /// the prefix length, `None` when there is none or it is not finite.
 #[inline(always)]
 fn fast_f64_prefix(s: &[u8]) -> Option<(f64, usize)> {
+    if let Some(hit) = short_decimal_prefix(s) {
+        return Some(hit);
+    }
     match fast_float2::parse_partial::<f64, _>(s) {
         Ok((v, len)) if v.is_finite() => Some((v, len)),
         _ => None,
     }
+}
+
+/// Exact powers of ten up to `1e22` (the largest a double holds exactly).
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+/// The cells of a typical record, `-?digits(.digits)?` with at most 19 digits, a significand
+/// of at most 2^53 and at most 22 decimals, parsed without the general machinery: the digits
+/// as an integer `m`, the value `m / 10^d`, both exact doubles, so one correctly rounded
+/// division gives the correctly rounded value (Clinger's fast path), the bits `str::parse`
+/// gives. Anything else (an exponent, a leading `+` or `.`, a trailing `.`, more digits) is
+/// `None` and goes to `fast-float2`, which takes every decimal.
+#[inline(always)]
+fn short_decimal_prefix(s: &[u8]) -> Option<(f64, usize)> {
+    let neg = s.first() == Some(&b'-');
+    let mut i = neg as usize;
+    let mut m: u64 = 0;
+    let int_start = i;
+    while let Some(&b) = s.get(i) {
+        let d = b.wrapping_sub(b'0');
+        if d > 9 {
+            break;
+        }
+        m = m.wrapping_mul(10).wrapping_add(d as u64);
+        i += 1;
+    }
+    let int_digits = i - int_start;
+    let mut decimals = 0;
+    if s.get(i) == Some(&b'.') {
+        i += 1;
+        let frac_start = i;
+        while let Some(&b) = s.get(i) {
+            let d = b.wrapping_sub(b'0');
+            if d > 9 {
+                break;
+            }
+            m = m.wrapping_mul(10).wrapping_add(d as u64);
+            i += 1;
+        }
+        decimals = i - frac_start;
+        if decimals == 0 {
+            return None;
+        }
+    }
+    if int_digits == 0
+        || int_digits + decimals > 19
+        || decimals > 22
+        || m > 1 << 53
+        || matches!(s.get(i), Some(b'e' | b'E'))
+    {
+        return None;
+    }
+    let v = m as f64 / POW10[decimals];
+    Some((if neg { -v } else { v }, i))
 }
 
 fn shorten(s: &str) -> String {
