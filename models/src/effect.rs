@@ -250,6 +250,12 @@ pub trait Effect: Send + Sync + fmt::Debug {
         0.0
     }
 
+    /// Servo effects: [`Effect::stiffness`] while the speed stays at or above `speed` (m/s)
+    /// with one sign, at most the stiffness itself (the default: no less).
+    fn stiffness_at(&self, _speed: f64) -> f64 {
+        self.stiffness()
+    }
+
     /// Pendulum modifiers: `(scale of a_ij, scale of b_ij)` at the operating point `[x, y]` m.
     fn pendulum_scale(&self, _operating_point: [f64; 2]) -> (f64, f64) {
         (1.0, 1.0)

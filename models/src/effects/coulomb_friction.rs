@@ -119,6 +119,11 @@ impl Effect for CoulombFriction {
     fn stiffness(&self) -> f64 {
         self.level * self.inv_v_s
     }
+    /// The slope `level / v_s sech^2(v / v_s)` at the lowest speed: it only falls above it.
+    fn stiffness_at(&self, speed: f64) -> f64 {
+        let c = (speed * self.inv_v_s).min(300.0).cosh();
+        self.stiffness() / (c * c)
+    }
 }
 
 fn build(ctx: &BuildContext, v: &[f64]) -> Box<dyn Effect> {

@@ -14,6 +14,8 @@ use crate::memo::Memo;
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
 
+mod creep;
+
 /// CoM state of one axis after a step.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ServoState {
@@ -176,7 +178,9 @@ impl Servo {
     ///
     /// When the servo effects only add a constant `c` to the acceleration through the step (the
     /// saturation not acting, friction keeping its sign), the servo is linear with the reference
-    /// shifted by `c / wn^2`, and the exact step is taken. Otherwise RK4 on four sub-steps.
+    /// shifted by `c / wn^2`, and the exact step is taken. A servo stuck by a stiff friction
+    /// creeps at the balance of forces (`creep.rs`). Otherwise RK4, on as many sub-steps as the
+    /// effects' stiffness at this step's speeds needs (at least four).
     #[inline]
     pub fn step(&mut self, r: f64, limits: &mut [Box<dyn Effect>]) -> ServoState {
         if self.link.is_some() {
@@ -208,7 +212,10 @@ impl Servo {
                 acceleration = self.demand(r, x, v) + c;
                 self.c_end = c;
             } else {
-                (self.x, self.v) = self.rk4(r0, dr, limits);
+                (self.x, self.v) = match self.creep(r0, r, limits) {
+                    Some(end) => end,
+                    None => self.rk4_at_speed(r0, dr, vl, limits),
+                };
                 let d = self.demand(r, self.x, self.v);
                 let c = offset(limits, d, self.v);
                 acceleration = d + c;
@@ -248,10 +255,55 @@ impl Servo {
         ((a1 - a0).abs() <= tol && (self.v >= 0.0) == (v >= 0.0)).then_some((x, v, c1))
     }
 
+    /// [`Servo::rk4`] with the sub-steps the effects need at the speeds of this step: where the
+    /// velocity keeps its sign and stays away from zero (the start and the linear loop's end
+    /// `v_linear` both), friction is nearly constant and far less stiff than at zero velocity
+    /// (the slope of `tanh` falls as `e^{-2|v|/v_s}`). The run is kept only if every sub-step
+    /// stayed above half that speed with the same sign; otherwise the step is taken again with
+    /// the sub-steps of zero velocity.
+    fn rk4_at_speed(
+        &self,
+        r0: f64,
+        dr: f64,
+        v_linear: f64,
+        limits: &mut [Box<dyn Effect>],
+    ) -> (f64, f64) {
+        let full = rk4_substeps(self.h, limits);
+        if full > MIN_SUBSTEPS && (self.v > 0.0) == (v_linear > 0.0) {
+            let speed = 0.5 * self.v.abs().min(v_linear.abs());
+            let k: f64 = limits.iter().map(|l| l.stiffness_at(speed)).sum();
+            let sub = substeps_for(self.h, k);
+            if sub < full {
+                let (x, v, slowest) = self.rk4_with(r0, dr, sub, limits);
+                if slowest >= speed && (v > 0.0) == (self.v > 0.0) {
+                    return (x, v);
+                }
+            }
+        }
+        let (x, v, _) = self.rk4_with(r0, dr, full, limits);
+        (x, v)
+    }
+
+    /// RK4 with the sub-steps of zero velocity on every step (the reference of the tests).
+    #[cfg(test)]
     fn rk4(&self, r0: f64, dr: f64, limits: &mut [Box<dyn Effect>]) -> (f64, f64) {
-        let sub = rk4_substeps(self.h, limits);
+        let (x, v, _) = self.rk4_with(r0, dr, rk4_substeps(self.h, limits), limits);
+        (x, v)
+    }
+
+    /// RK4 on `sub` sub-steps: the end position and velocity, and the lowest speed at a
+    /// sub-step's end with the starting velocity's sign (0 if the sign changed).
+    fn rk4_with(
+        &self,
+        r0: f64,
+        dr: f64,
+        sub: usize,
+        limits: &mut [Box<dyn Effect>],
+    ) -> (f64, f64, f64) {
         let hs = self.h / sub as f64;
         let (mut x, mut v) = (self.x, self.v);
+        let sign = if self.v >= 0.0 { 1.0 } else { -1.0 };
+        let mut slowest = f64::INFINITY;
         for k in 0..sub {
             let ra = r0 + dr * (k as f64 / sub as f64);
             let rm = r0 + dr * ((k as f64 + 0.5) / sub as f64);
@@ -266,8 +318,9 @@ impl Servo {
             let k4x = v + hs * k3v;
             x += hs / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
             v += hs / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+            slowest = slowest.min((sign * v).max(0.0));
         }
-        (x, v)
+        (x, v, slowest)
     }
 
     /// [`Servo::step`] of the two-body loop: the exact linear step while the servo effects add
@@ -390,7 +443,13 @@ pub(crate) const SUBSTEP_STIFFNESS: f64 = 2.0;
 /// effect (regularised friction) needs them, at most [`MAX_SUBSTEPS`].
 #[inline]
 fn rk4_substeps(h: f64, limits: &[Box<dyn Effect>]) -> usize {
-    let k: f64 = limits.iter().map(|l| l.stiffness()).sum();
+    substeps_for(h, limits.iter().map(|l| l.stiffness()).sum())
+}
+
+/// RK4 sub-steps of a step `h` for a stiffness `k` (1/s), within [`MIN_SUBSTEPS`] and
+/// [`MAX_SUBSTEPS`].
+#[inline]
+fn substeps_for(h: f64, k: f64) -> usize {
     let n = (h * k / SUBSTEP_STIFFNESS).ceil();
     if n.is_finite() {
         (n as usize).clamp(MIN_SUBSTEPS, MAX_SUBSTEPS)

@@ -1,0 +1,187 @@
+//! The stuck servo. Where a stiff servo effect (Coulomb friction regularised over a speed
+//! `v_s` far below the motion's) holds the velocity inside its narrow band, the velocity
+//! relaxes to the balance of the forces within a small fraction of a step (the rate is the
+//! friction's slope `level / v_s`, thousands per second) and then follows it: the position
+//! creeps at the balancing velocity (the regularised law's own creep, `v_s atanh(d / level)`
+//! for a demand `d` below the friction). RK4 would need hundreds of sub-steps per step there
+//! for stability alone; the creep step solves the balance three times instead (midpoint rule
+//! on the slow motion). It is taken only when the velocity is already at the balance and the
+//! relaxation is fast at the step's start, middle and end; entering and leaving the stick,
+//! where the velocity leaves the band, RK4 takes the step as before.
+
+use super::{rk4_substeps, Servo};
+use crate::effect::Effect;
+
+/// RK4 sub-steps a step would need before the creep step is tried (below, RK4 is cheap and
+/// the step's results stay exactly those of RK4).
+pub(super) const CREEP_MIN_SUBSTEPS: usize = 16;
+/// Step times the relaxation rate at the balance, at least: the velocity's transient is then
+/// down to e^-10 by the step's end.
+const CREEP_MIN_RELAXATION: f64 = 10.0;
+/// Largest displacement, m, that the velocity's distance from the balance at the step's start
+/// may still cause (it is added).
+const CREEP_SETTLED: f64 = 1e-10;
+
+impl Servo {
+    /// The creep step from the current state, the reference moving from `r0` to `r1`: the end
+    /// position and velocity, or `None` where the servo is not stuck (then RK4).
+    pub(super) fn creep(
+        &self,
+        r0: f64,
+        r1: f64,
+        limits: &mut [Box<dyn Effect>],
+    ) -> Option<(f64, f64)> {
+        if rk4_substeps(self.h, limits) < CREEP_MIN_SUBSTEPS {
+            return None;
+        }
+        let h = self.h;
+        let k: f64 = limits.iter().map(|l| l.stiffness()).sum::<f64>() + self.two_zeta_wn;
+        let (va, sa) = self.balance(limits, r0, self.x, self.v, k)?;
+        let settled = (self.v - va) / sa;
+        if h * sa < CREEP_MIN_RELAXATION || settled.abs() > CREEP_SETTLED {
+            return None;
+        }
+        let x0 = self.x + settled;
+        let (vm, sm) = self.balance(limits, 0.5 * (r0 + r1), x0 + 0.5 * h * va, va, sa)?;
+        let x1 = x0 + h * vm;
+        let (v1, s1) = self.balance(limits, r1, x1, vm, sm)?;
+        (h * sm.min(s1) >= CREEP_MIN_RELAXATION).then_some((x1, v1))
+    }
+
+    /// The velocity at which the servo's acceleration vanishes at reference `r` and position
+    /// `x`, and the acceleration's slope there, `-da/dv` (1/s), from a nearby `guess` and its
+    /// `slope`. The acceleration falls with the velocity (damping, friction and the
+    /// saturation's clamp all do): secant steps from the guess converge in a few evaluations;
+    /// should they not, a bracket grows from zero until the sign changes and bisection closes
+    /// it.
+    fn balance(
+        &self,
+        limits: &mut [Box<dyn Effect>],
+        r: f64,
+        x: f64,
+        guess: f64,
+        slope: f64,
+    ) -> Option<(f64, f64)> {
+        let k: f64 = limits.iter().map(|l| l.stiffness()).sum::<f64>() + self.two_zeta_wn;
+        let mut g = |v: f64| self.accel(limits, r, x, v);
+        let converged = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(b.abs()) + 1e-18;
+        let mut root = None;
+        let (mut v0, mut g0, mut s) = (guess, g(guess), slope);
+        for _ in 0..12 {
+            if !(g0.is_finite() && s.is_finite() && s > 0.0) {
+                break;
+            }
+            let v1 = v0 + g0 / s;
+            let g1 = g(v1);
+            if converged(v0, v1) || g1 == 0.0 {
+                root = Some(v1);
+                break;
+            }
+            let secant = (g0 - g1) / (v1 - v0);
+            if secant > 0.0 {
+                s = secant;
+            }
+            (v0, g0) = (v1, g1);
+        }
+        let v = match root {
+            Some(v) => v,
+            None => {
+                let g0 = g(0.0);
+                if !g0.is_finite() {
+                    return None;
+                }
+                let dir = if g0 >= 0.0 { 1.0 } else { -1.0 };
+                // [a, b]: g(a) has g0's sign, g(b) the other (or is zero).
+                let (mut a, mut b) = (0.0, dir * (g0.abs() / k).max(1e-300));
+                let mut expansions = 0;
+                while g(b) * dir > 0.0 {
+                    a = b;
+                    b *= 2.0;
+                    expansions += 1;
+                    if expansions > 200 {
+                        return None;
+                    }
+                }
+                while !converged(a, b) {
+                    let m = 0.5 * (a + b);
+                    if m == a || m == b {
+                        break;
+                    }
+                    if g(m) * dir > 0.0 {
+                        a = m;
+                    } else {
+                        b = m;
+                    }
+                }
+                0.5 * (a + b)
+            }
+        };
+        let dv = 1e-6 * v.abs().max(1e-12);
+        let slope = (g(v - dv) - g(v + dv)) / (2.0 * dv);
+        (slope.is_finite() && slope > 0.0).then_some((v, slope))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::effect::{BuildContext, Effect};
+    use crate::effects::servo::Servo;
+    use crate::{lookup, Axis, Binding};
+
+    fn friction(level: f64, v_s: f64) -> Vec<Box<dyn Effect>> {
+        let ctx = BuildContext {
+            h: 0.005,
+            binding: Binding::Axis(Axis::X),
+            servo: Some((30.0, 1.0)),
+            link: None,
+        };
+        vec![(lookup("coulomb_friction").unwrap().build)(
+            &ctx,
+            &[level, v_s],
+        )]
+    }
+
+    /// Sticking and slipping runs: the servo's steps (creeping where stuck, RK4 on the
+    /// sub-steps of the step's speeds where it slips) against RK4 on every step with the
+    /// sub-steps of zero velocity. Where the friction exceeds the demand most of
+    /// the time, the creep must be taken on a quarter of the steps at least (it is what is
+    /// being tested), and the positions must agree to 1e-4 of the amplitude (RK4's own
+    /// sub-step error is of that order).
+    #[test]
+    fn creeping_and_speed_stepped_servo_follows_rk4_through_stick_and_slip() {
+        let h = 0.005;
+        for &(level, v_s, omega, amplitude, sticks) in &[
+            (2.5, 1e-4, 0.5, 0.003, true),
+            (1.0, 1e-4, 2.0, 0.003, false),
+            (2.0, 1e-5, 1.0, 0.004, true),
+            (0.5, 1e-4, 6.0, 0.002, false),
+        ] {
+            let mut limits = friction(level, v_s);
+            let mut reference = friction(level, v_s);
+            let mut servo = Servo::new(30.0, 1.0, h);
+            let mut plain = Servo::new(30.0, 1.0, h);
+            servo.reset(0.0);
+            plain.reset(0.0);
+            let steps = (2.0 * 2.0 * std::f64::consts::PI / omega / h) as usize;
+            let (mut worst, mut crept) = (0.0f64, 0);
+            for k in 1..=steps {
+                let r = amplitude * (omega * k as f64 * h).sin();
+                if servo.creep(servo.r_prev, r, &mut limits).is_some() {
+                    crept += 1;
+                }
+                let x = servo.step(r, &mut limits).position;
+                (plain.x, plain.v) = plain.rk4(plain.r_prev, r - plain.r_prev, &mut reference);
+                plain.r_prev = r;
+                worst = worst.max((x - plain.x).abs());
+            }
+            assert!(
+                !sticks || crept >= steps / 4,
+                "level {level} omega {omega}: crept {crept} of {steps} steps"
+            );
+            assert!(
+                worst <= 1e-4 * amplitude,
+                "level {level} v_s {v_s} omega {omega}: {worst:e} m apart (amplitude {amplitude})"
+            );
+        }
+    }
+}
