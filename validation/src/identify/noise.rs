@@ -382,6 +382,42 @@ mod tests {
     }
 
     #[test]
+    fn every_bin_matches_the_residual_summed_directly() {
+        // The residual evaluated term by term and each bin's sum with exact sines: what the
+        // recursions (harmonics, Goertzel) must give, on whole and fractional periods.
+        for (n, omega) in [(6000usize, 2.0), (3771, 2.3), (1200, 15.0)] {
+            let dt = 0.005;
+            let y = noisy(n, omega, dt, 5e-4, 0.6, 7);
+            let fit = harmonic_fit_trend([&y[..]], omega, dt, 3).unwrap();
+            let [ln] = local_noise([&y[..]], &fit, omega, dt);
+            let c = (n as f64 - 1.0) / 2.0;
+            let e: Vec<f64> = (0..n)
+                .map(|k| {
+                    let mut f = fit.dc[0] + fit.trend[0] * (k as f64 - c) * dt;
+                    for (h, p) in fit.harmonics[0].iter().enumerate() {
+                        let (sn, cs) = ((h + 1) as f64 * omega * k as f64 * dt).sin_cos();
+                        f += p.re * sn + p.im * cs;
+                    }
+                    y[k] - f
+                })
+                .collect();
+            for &(w, p) in ln.near_bins.iter().chain(&ln.zero_bins) {
+                let (mut re, mut im) = (0.0, 0.0);
+                for (k, ek) in e.iter().enumerate() {
+                    let (sn, cs) = (w * k as f64 * dt).sin_cos();
+                    re += ek * cs;
+                    im -= ek * sn;
+                }
+                let want = (re * re + im * im) / n as f64;
+                assert!(
+                    (p - want).abs() <= 1e-6 * want,
+                    "n {n} omega {omega} bin {w}: {p:e} against {want:e}"
+                );
+            }
+        }
+    }
+
+    #[test]
     fn white_noise_has_equal_power_in_every_bin() {
         let (dt, omega, n) = (0.005, 2.0, 6000);
         let mut r_near = Vec::new();
