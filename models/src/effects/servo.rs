@@ -212,9 +212,10 @@ impl Servo {
                 acceleration = self.demand(r, x, v) + c;
                 self.c_end = c;
             } else {
-                (self.x, self.v) = match self.creep(r0, r, limits) {
+                let stiffness: f64 = limits.iter().map(|l| l.stiffness()).sum();
+                (self.x, self.v) = match self.creep(r0, r, stiffness, limits) {
                     Some(end) => end,
-                    None => self.rk4_at_speed(r0, dr, vl, limits),
+                    None => self.rk4_at_speed(r0, dr, vl, stiffness, limits),
                 };
                 let d = self.demand(r, self.x, self.v);
                 let c = offset(limits, d, self.v);
@@ -260,15 +261,16 @@ impl Servo {
     /// `v_linear` both), friction is nearly constant and far less stiff than at zero velocity
     /// (the slope of `tanh` falls as `e^{-2|v|/v_s}`). The run is kept only if every sub-step
     /// stayed above half that speed with the same sign; otherwise the step is taken again with
-    /// the sub-steps of zero velocity.
+    /// the sub-steps of zero velocity (`stiffness`, the effects' summed [`Effect::stiffness`]).
     fn rk4_at_speed(
         &self,
         r0: f64,
         dr: f64,
         v_linear: f64,
+        stiffness: f64,
         limits: &mut [Box<dyn Effect>],
     ) -> (f64, f64) {
-        let full = rk4_substeps(self.h, limits);
+        let full = substeps_for(self.h, stiffness);
         if full > MIN_SUBSTEPS && (self.v > 0.0) == (v_linear > 0.0) {
             let speed = 0.5 * self.v.abs().min(v_linear.abs());
             let k: f64 = limits.iter().map(|l| l.stiffness_at(speed)).sum();
@@ -287,7 +289,8 @@ impl Servo {
     /// RK4 with the sub-steps of zero velocity on every step (the reference of the tests).
     #[cfg(test)]
     fn rk4(&self, r0: f64, dr: f64, limits: &mut [Box<dyn Effect>]) -> (f64, f64) {
-        let (x, v, _) = self.rk4_with(r0, dr, rk4_substeps(self.h, limits), limits);
+        let k: f64 = limits.iter().map(|l| l.stiffness()).sum();
+        let (x, v, _) = self.rk4_with(r0, dr, substeps_for(self.h, k), limits);
         (x, v)
     }
 
@@ -439,14 +442,8 @@ pub const MAX_SUBSTEPS: usize = 4096;
 /// (`models/examples/dfbench.rs`) at a quarter of the cost.
 pub(crate) const SUBSTEP_STIFFNESS: f64 = 2.0;
 
-/// RK4 sub-steps of a step `h` with `limits`: at least [`MIN_SUBSTEPS`], more when a stiff
-/// effect (regularised friction) needs them, at most [`MAX_SUBSTEPS`].
-#[inline]
-fn rk4_substeps(h: f64, limits: &[Box<dyn Effect>]) -> usize {
-    substeps_for(h, limits.iter().map(|l| l.stiffness()).sum())
-}
-
-/// RK4 sub-steps of a step `h` for a stiffness `k` (1/s), within [`MIN_SUBSTEPS`] and
+/// RK4 sub-steps of a step `h` for the servo effects' stiffness `k` (1/s): at least
+/// [`MIN_SUBSTEPS`], more when a stiff effect (regularised friction) needs them, at most
 /// [`MAX_SUBSTEPS`].
 #[inline]
 fn substeps_for(h: f64, k: f64) -> usize {

@@ -648,27 +648,13 @@ fn short_decimal_prefix(s: &[u8]) -> Option<(f64, usize)> {
     let mut i = neg as usize;
     let mut m: u64 = 0;
     let int_start = i;
-    while let Some(&b) = s.get(i) {
-        let d = b.wrapping_sub(b'0');
-        if d > 9 {
-            break;
-        }
-        m = m.wrapping_mul(10).wrapping_add(d as u64);
-        i += 1;
-    }
+    i = push_digits(s, i, &mut m);
     let int_digits = i - int_start;
     let mut decimals = 0;
     if s.get(i) == Some(&b'.') {
         i += 1;
         let frac_start = i;
-        while let Some(&b) = s.get(i) {
-            let d = b.wrapping_sub(b'0');
-            if d > 9 {
-                break;
-            }
-            m = m.wrapping_mul(10).wrapping_add(d as u64);
-            i += 1;
-        }
+        i = push_digits(s, i, &mut m);
         decimals = i - frac_start;
         if decimals == 0 {
             return None;
@@ -684,6 +670,21 @@ fn short_decimal_prefix(s: &[u8]) -> Option<(f64, usize)> {
     }
     let v = m as f64 / POW10[decimals];
     Some((if neg { -v } else { v }, i))
+}
+
+/// Appends the ASCII digits from `s[i]` on to `m` (wrapping: the caller bounds the count);
+/// returns where they end.
+#[inline(always)]
+fn push_digits(s: &[u8], mut i: usize, m: &mut u64) -> usize {
+    while let Some(&b) = s.get(i) {
+        let d = b.wrapping_sub(b'0');
+        if d > 9 {
+            break;
+        }
+        *m = m.wrapping_mul(10).wrapping_add(d as u64);
+        i += 1;
+    }
+    i
 }
 
 fn shorten(s: &str) -> String {

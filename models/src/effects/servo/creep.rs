@@ -9,7 +9,7 @@
 //! relaxation is fast at the step's start, middle and end; entering and leaving the stick,
 //! where the velocity leaves the band, RK4 takes the step as before.
 
-use super::{rk4_substeps, Servo};
+use super::{substeps_for, Servo};
 use crate::effect::Effect;
 
 /// RK4 sub-steps a step would need before the creep step is tried (below, RK4 is cheap and
@@ -23,28 +23,30 @@ const CREEP_MIN_RELAXATION: f64 = 10.0;
 const CREEP_SETTLED: f64 = 1e-10;
 
 impl Servo {
-    /// The creep step from the current state, the reference moving from `r0` to `r1`: the end
-    /// position and velocity, or `None` where the servo is not stuck (then RK4).
+    /// The creep step from the current state, the reference moving from `r0` to `r1` (the
+    /// effects' summed [`Effect::stiffness`] is `stiffness`): the end position and velocity,
+    /// or `None` where the servo is not stuck (then RK4).
     pub(super) fn creep(
         &self,
         r0: f64,
         r1: f64,
+        stiffness: f64,
         limits: &mut [Box<dyn Effect>],
     ) -> Option<(f64, f64)> {
-        if rk4_substeps(self.h, limits) < CREEP_MIN_SUBSTEPS {
+        if substeps_for(self.h, stiffness) < CREEP_MIN_SUBSTEPS {
             return None;
         }
         let h = self.h;
-        let k: f64 = limits.iter().map(|l| l.stiffness()).sum::<f64>() + self.two_zeta_wn;
-        let (va, sa) = self.balance(limits, r0, self.x, self.v, k)?;
+        let k = stiffness + self.two_zeta_wn;
+        let (va, sa) = self.balance(limits, r0, self.x, self.v, k, k)?;
         let settled = (self.v - va) / sa;
         if h * sa < CREEP_MIN_RELAXATION || settled.abs() > CREEP_SETTLED {
             return None;
         }
         let x0 = self.x + settled;
-        let (vm, sm) = self.balance(limits, 0.5 * (r0 + r1), x0 + 0.5 * h * va, va, sa)?;
+        let (vm, sm) = self.balance(limits, 0.5 * (r0 + r1), x0 + 0.5 * h * va, va, sa, k)?;
         let x1 = x0 + h * vm;
-        let (v1, s1) = self.balance(limits, r1, x1, vm, sm)?;
+        let (v1, s1) = self.balance(limits, r1, x1, vm, sm, k)?;
         (h * sm.min(s1) >= CREEP_MIN_RELAXATION).then_some((x1, v1))
     }
 
@@ -52,8 +54,8 @@ impl Servo {
     /// `x`, and the acceleration's slope there, `-da/dv` (1/s), from a nearby `guess` and its
     /// `slope`. The acceleration falls with the velocity (damping, friction and the
     /// saturation's clamp all do): secant steps from the guess converge in a few evaluations;
-    /// should they not, a bracket grows from zero until the sign changes and bisection closes
-    /// it.
+    /// should they not, a bracket grows from zero (its first width from the steepest slope
+    /// `k`) until the sign changes and bisection closes it.
     fn balance(
         &self,
         limits: &mut [Box<dyn Effect>],
@@ -61,8 +63,8 @@ impl Servo {
         x: f64,
         guess: f64,
         slope: f64,
+        k: f64,
     ) -> Option<(f64, f64)> {
-        let k: f64 = limits.iter().map(|l| l.stiffness()).sum::<f64>() + self.two_zeta_wn;
         let mut g = |v: f64| self.accel(limits, r, x, v);
         let converged = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(b.abs()) + 1e-18;
         let mut root = None;
@@ -166,7 +168,11 @@ mod tests {
             let (mut worst, mut crept) = (0.0f64, 0);
             for k in 1..=steps {
                 let r = amplitude * (omega * k as f64 * h).sin();
-                if servo.creep(servo.r_prev, r, &mut limits).is_some() {
+                let stiffness: f64 = limits.iter().map(|l| l.stiffness()).sum();
+                if servo
+                    .creep(servo.r_prev, r, stiffness, &mut limits)
+                    .is_some()
+                {
                     crept += 1;
                 }
                 let x = servo.step(r, &mut limits).position;
