@@ -1,5 +1,6 @@
-//! The whole identification pipeline (read the campaign from disk + identify) on the reference
-//! virtual SILO2 campaign (168 records, ~680k rows, ~25 MB of CSV, acceleration limit
+//! The whole identification pipeline as `cargo xtask identify` runs it (read the campaign from
+//! disk, each record analysed as it is read, then identify) on the reference virtual SILO2
+//! campaign (168 records, ~680k rows, ~25 MB of CSV, acceleration limit
 //! 1.2 m/s2), and the same pipeline written with numpy and pyarrow (`bench/peers/identify_numpy.py`:
 //! multithreaded CSV reading, vectorised fits, 2 threads like ours) timed in the same run. The peer runs with `$ZMP_PYTHON` (default
 //! `~/.cache/zmp-toolkit/venv/bin/python`); it is skipped with a note if that is missing.

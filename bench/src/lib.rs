@@ -153,8 +153,8 @@ pub fn report_peer(name: &str, ours_s: f64, peer_s: f64, unit: &str, note: &str)
 pub mod identify {
     use std::path::{Path, PathBuf};
     use zmp_models::{Axis, Binding, EffectInstance, ModelSpec};
-    use zmp_validation::campaign::{read_campaign, write_campaign};
-    use zmp_validation::identify::{identify, IdentifyOptions};
+    use zmp_validation::campaign::{read_manifest, write_campaign};
+    use zmp_validation::identify::{analyse_folder, identify_analysed, IdentifyOptions};
     use zmp_validation::virtual_robot::{simulate_campaign, ExperimentDesign};
 
     /// Simulates the reference virtual SILO2 campaign (paper model with an acceleration limit
@@ -178,10 +178,13 @@ pub mod identify {
         dir
     }
 
-    /// The measured pipeline: read the campaign from disk and identify it; returns `a11`.
+    /// The measured pipeline, as `cargo xtask identify` runs it: read the campaign from disk,
+    /// analysing each record as it is read, and identify it; returns `a11`.
     pub fn pipeline(dir: &Path) -> f64 {
-        let camp = read_campaign(dir).expect("read");
-        let id = identify(&camp, &IdentifyOptions::default()).expect("identify");
+        let opts = IdentifyOptions::default();
+        let manifest = read_manifest(dir).expect("manifest");
+        let fits = analyse_folder(dir, &manifest, &opts, &|_| {}).expect("read");
+        let id = identify_analysed(fits, manifest.name.clone(), &opts).expect("identify");
         id.a[0][0].value
     }
 }

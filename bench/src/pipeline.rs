@@ -6,9 +6,11 @@
 
 use std::path::{Path, PathBuf};
 use zmp_models::{lookup, Axis, Binding, EffectInstance, ModelSpec};
-use zmp_validation::campaign::{read_campaign, write_campaign, Campaign};
+use zmp_validation::campaign::{read_manifest, write_campaign, Campaign};
 use zmp_validation::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
-use zmp_validation::identify::{identify, Identification, IdentifyOptions};
+use zmp_validation::identify::{
+    analyse_folder, identify_analysed, Identification, IdentifyOptions,
+};
 use zmp_validation::virtual_robot::{logspace, simulate_campaign, ExperimentDesign};
 
 /// Name of the campaign folder that [`write`] creates.
@@ -78,10 +80,13 @@ pub fn write(parent: &Path) -> anyhow::Result<(PathBuf, PathBuf)> {
     Ok((dir, model))
 }
 
-/// What the identification count measures: read the campaign from disk and identify it.
+/// What the identification count measures: read the campaign from disk and identify it, as
+/// `cargo xtask identify` does (each record analysed as it is read).
 pub fn identify_read(dir: &Path) -> anyhow::Result<Identification> {
-    let camp = read_campaign(dir)?;
-    Ok(identify(&camp, &identify_options())?)
+    let opts = identify_options();
+    let manifest = read_manifest(dir)?;
+    let fits = analyse_folder(dir, &manifest, &opts, &|_| {})?;
+    Ok(identify_analysed(fits, manifest.name.clone(), &opts)?)
 }
 
 /// What the diagnosis count measures: diagnose a campaign (already read) against a model.

@@ -186,9 +186,35 @@ pub fn read_record(
             )
         })?;
     let path = dir.join(relative);
-    let bytes =
-        std::fs::read(&path).map_err(|e| CampaignError::io(&shown, Some(index), "read", e))?;
-    parse_record(&bytes, &shown, index, meta.clone(), sample_rate_hz)
+    // The file's bytes go into this thread's buffer, kept from record to record: a campaign
+    // read in parallel touches fresh memory for its columns only, not again for its text.
+    thread_local! {
+        static BYTES: std::cell::RefCell<Vec<u8>> = const { std::cell::RefCell::new(Vec::new()) };
+    }
+    BYTES.with(|cell| {
+        let mut borrowed = cell.try_borrow_mut();
+        let mut own = Vec::new();
+        let bytes = match borrowed.as_deref_mut() {
+            Ok(buf) => buf,
+            Err(_) => &mut own, // re-entered on this thread (not done today): a buffer of its own
+        };
+        bytes.clear();
+        std::fs::File::open(&path)
+            .and_then(|mut f| {
+                use std::io::Read;
+                if let Ok(m) = f.metadata() {
+                    bytes.reserve(m.len() as usize + 1);
+                }
+                f.read_to_end(bytes)
+            })
+            .map_err(|e| CampaignError::io(&shown, Some(index), "read", e))?;
+        let record = parse_record(bytes, &shown, index, meta.clone(), sample_rate_hz);
+        // A buffer grown for an unusually large file is not kept.
+        if bytes.capacity() > 64 << 20 {
+            *bytes = Vec::new();
+        }
+        record
+    })
 }
 
 /// Reads a whole campaign folder: `campaign.toml` and every record CSV, in parallel.
@@ -197,15 +223,30 @@ pub fn read_record(
 /// scheduling).
 pub fn read_campaign(dir: &Path) -> Result<Campaign, CampaignError> {
     let manifest = read_manifest(dir)?;
-    let rate = manifest.sample_rate_hz;
-    let records = for_each_parallel(manifest.records.len(), |i| {
-        read_record(dir, i, &manifest.records[i], rate)
-    })?;
+    let records = map_records(dir, &manifest, crate::par::budget(), |_, r| r)?;
     Ok(Campaign {
         name: manifest.name,
         robot: manifest.robot,
         sample_rate_hz: manifest.sample_rate_hz,
         records,
+    })
+}
+
+/// Reads every record of `manifest` (the manifest of the campaign in `dir`) on up to
+/// `threads` threads and hands each to `job(index, record)` on the thread that read it, while
+/// its data is still in that core's cache; returns the results in record order, or the first
+/// read error in record order. What `job` drops is freed at once: [`crate::identify`] keeps
+/// each record's analysis, not its columns, so a campaign of any size is identified in the
+/// memory of a few records.
+pub fn map_records<T: Send>(
+    dir: &Path,
+    manifest: &Manifest,
+    threads: usize,
+    job: impl Fn(usize, Record) -> T + Sync,
+) -> Result<Vec<T>, CampaignError> {
+    let rate = manifest.sample_rate_hz;
+    crate::par::try_parallel_map(manifest.records.len(), threads, |i| {
+        read_record(dir, i, &manifest.records[i], rate).map(|r| job(i, r))
     })
 }
 

@@ -652,6 +652,27 @@ pub fn analyse_records(
     fits
 }
 
+/// [`analyse_records`] straight from the campaign folder `dir` (whose manifest is
+/// `manifest`): each record is analysed on the thread that read it and its columns are dropped
+/// there, so the campaign's data is never all in memory (what `cargo xtask identify` does).
+/// The analyses equal those of [`read_campaign`](crate::campaign::read_campaign) followed by
+/// [`analyse_records`].
+pub fn analyse_folder(
+    dir: &std::path::Path,
+    manifest: &crate::campaign::Manifest,
+    opts: &IdentifyOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Vec<RecordFit>, crate::campaign::CampaignError> {
+    let done = AtomicUsize::new(0);
+    let mut fits = crate::campaign::map_records(dir, manifest, worker_count(opts), |k, record| {
+        let fit = analyse_record(&record, k, opts);
+        progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+        fit
+    })?;
+    pool_colour(&mut fits, opts.relative_floor);
+    Ok(fits)
+}
+
 /// Pools the records' colour estimates over the campaign, per output and by frequency (see
 /// `noise`), and updates each record's colour factors and the standard errors of its `g`:
 /// with white noise the factors are about 1 and nothing changes; with coloured noise the
@@ -732,7 +753,23 @@ pub fn identify_with_progress(
     if campaign.records.is_empty() {
         return Err(IdentifyError::Empty);
     }
-    let mut records = analyse_records(campaign, opts, progress);
+    identify_analysed(
+        analyse_records(campaign, opts, progress),
+        campaign.name.clone(),
+        opts,
+    )
+}
+
+/// The identification from the records' analyses ([`analyse_records`] or [`analyse_folder`]),
+/// in record order, of the campaign named `campaign_name` (`name` in its manifest).
+pub fn identify_analysed(
+    mut records: Vec<RecordFit>,
+    campaign_name: Option<String>,
+    opts: &IdentifyOptions,
+) -> Result<Identification, IdentifyError> {
+    if records.is_empty() {
+        return Err(IdentifyError::Empty);
+    }
     let mut warnings = Vec::new();
     // Exclusions, grouped by reason.
     let mut by_reason: BTreeMap<String, Vec<usize>> = BTreeMap::new();
@@ -998,7 +1035,7 @@ pub fn identify_with_progress(
     };
     let uncertainty = uncertainty_database(&records, &p, &factors);
     let mut ident = Identification {
-        campaign_name: campaign.name.clone(),
+        campaign_name,
         records,
         a,
         b,
@@ -1020,7 +1057,7 @@ pub fn identify_with_progress(
             stderr: toml::Table::new(),
         },
     };
-    ident.model = build_model(&ident, campaign, opts)?;
+    ident.model = build_model(&ident, opts)?;
     Ok(ident)
 }
 
@@ -1498,11 +1535,7 @@ fn fl(v: f64) -> toml::Value {
 }
 
 /// Step 8: the model file.
-fn build_model(
-    ident: &Identification,
-    campaign: &Campaign,
-    opts: &IdentifyOptions,
-) -> Result<ModelSpec, IdentifyError> {
+fn build_model(ident: &Identification, opts: &IdentifyOptions) -> Result<ModelSpec, IdentifyError> {
     let mut spec = match &opts.start_model {
         Some(m) => m.clone(),
         None => ModelSpec::parse(
@@ -1511,7 +1544,7 @@ fn build_model(
         )
         .map_err(|e| IdentifyError::FitFailed(e.to_string()))?,
     };
-    let name = campaign.name.clone().unwrap_or_else(|| "campaign".into());
+    let name = ident.campaign_name.as_deref().unwrap_or("campaign");
     spec.name = Some(format!("identified from {name}"));
     spec.description = Some(format!(
         "Identified by zmp-validation {} (first seed, section 5) from {} of {} records; \
@@ -1607,7 +1640,7 @@ fn build_model(
     }
     spec.stderr = stderr;
     let mut prov = toml::Table::new();
-    prov.insert("campaign".into(), toml::Value::String(name));
+    prov.insert("campaign".into(), toml::Value::String(name.to_owned()));
     if let Some(p) = &opts.campaign_path {
         prov.insert(
             "campaign_path".into(),

@@ -152,3 +152,70 @@ fn model_file_parses_back_and_is_not_overwritten_without_force() {
     let html = std::fs::read_to_string(&rep.html).unwrap();
     assert!(html.contains("<svg") && html.contains("pendulum.a11"));
 }
+
+/// `cargo xtask identify` analyses each record as it reads it (`analyse_folder`): the analyses
+/// and the model equal those of reading the whole campaign first, on one thread and on two;
+/// a bad record gives the same error (file, line, column) as `read_campaign`, the first in
+/// record order.
+#[test]
+fn analysing_while_reading_equals_reading_first() {
+    use zmp_validation::campaign::{read_campaign, read_manifest, write_campaign};
+    use zmp_validation::identify::{analyse_folder, analyse_records, identify_analysed};
+    let mut camp = small(logspace(0.5, 15.0, 8));
+    camp.name = Some("streamed".into());
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("c");
+    write_campaign(&folder, &camp, false).unwrap();
+    let read = read_campaign(&folder).unwrap();
+    let manifest = read_manifest(&folder).unwrap();
+    for threads in [1, 2] {
+        let opts = IdentifyOptions {
+            threads: Some(threads),
+            ..IdentifyOptions::default()
+        };
+        let first = analyse_records(&read, &opts, &|_| {});
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let streamed = analyse_folder(&folder, &manifest, &opts, &|d| {
+            done.fetch_max(d, std::sync::atomic::Ordering::Relaxed);
+        })
+        .unwrap();
+        assert_eq!(
+            done.into_inner(),
+            camp.records.len(),
+            "progress reaches the end"
+        );
+        assert_eq!(streamed, first, "{threads} threads");
+        let a = identify(&read, &opts).unwrap();
+        let b = identify_analysed(streamed, manifest.name.clone(), &opts).unwrap();
+        assert_eq!(a.model.to_toml(), b.model.to_toml(), "{threads} threads");
+        assert_eq!(b.campaign_name.as_deref(), Some("streamed"));
+    }
+    // Two bad records: both paths name the first one, at the same line and column.
+    let files: Vec<_> = manifest
+        .records
+        .iter()
+        .map(|r| folder.join(&r.file))
+        .collect();
+    for (k, line) in [(5, 40), (2, 7)] {
+        let text = std::fs::read_to_string(&files[k]).unwrap();
+        let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+        let cells: Vec<&str> = lines[line - 1].split(',').collect();
+        let mut bad: Vec<String> = cells.iter().map(|c| c.to_string()).collect();
+        bad[3] = "0.1x".into();
+        lines[line - 1] = bad.join(",");
+        std::fs::write(&files[k], lines.join("\n") + "\n").unwrap();
+    }
+    let whole = read_campaign(&folder).unwrap_err().to_string();
+    let opts = IdentifyOptions {
+        threads: Some(2),
+        ..IdentifyOptions::default()
+    };
+    let streamed = analyse_folder(&folder, &manifest, &opts, &|_| {})
+        .unwrap_err()
+        .to_string();
+    assert_eq!(streamed, whole);
+    assert!(
+        whole.contains("r002.csv:7:") && whole.contains("zmp_x"),
+        "{whole}"
+    );
+}

@@ -4,10 +4,10 @@ use crate::simulate::load_model;
 use crate::simulate::progress_bar;
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
-use zmp_validation::campaign::read_campaign;
+use zmp_validation::campaign::{read_campaign, read_manifest};
 use zmp_validation::identify::{
-    identify_with_progress, report::write_report, summary_json, write_model, Identification,
-    IdentifyOptions,
+    analyse_folder, identify_analysed, identify_with_progress, report::write_report, summary_json,
+    write_model, Identification, IdentifyOptions,
 };
 use zmp_validation::io::{check_output_file, claim_dir, REPORT_MARKER};
 
@@ -64,10 +64,8 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
     }
     let start_model = a.model.map(load_model).transpose()?;
     let quiet = json;
-    let spinner = progress_bar(1, "reading", quiet);
-    let camp = read_campaign(campaign)
-        .with_context(|| format!("reading campaign {}", campaign.display()))?;
-    spinner.finish_and_clear();
+    let reading = || format!("reading campaign {}", campaign.display());
+    let manifest = read_manifest(campaign).with_context(reading)?;
     let opts = IdentifyOptions {
         given_bandwidth: a.bandwidth,
         campaign_path: Some(campaign.to_path_buf()),
@@ -75,9 +73,13 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
         include_saturation: a.include_saturation,
         ..IdentifyOptions::default()
     };
-    let pb = progress_bar(camp.records.len() as u64, "fitting", quiet);
-    let ident = identify_with_progress(&camp, &opts, &|d| pb.set_position(d as u64))?;
+    // Each record is analysed as it is read and its columns dropped (the campaign's data is
+    // never all in memory); only a starting model's refit below needs the data again.
+    let pb = progress_bar(manifest.records.len() as u64, "reading and fitting", quiet);
+    let fits = analyse_folder(campaign, &manifest, &opts, &|d| pb.set_position(d as u64))
+        .with_context(reading)?;
     pb.finish_and_clear();
+    let ident = identify_analysed(fits, manifest.name.clone(), &opts)?;
     // A model that names effects beyond the core: those are refitted with it.
     let dopts = zmp_validation::diagnose::DiagnoseOptions {
         campaign_path: campaign.display().to_string(),
@@ -90,6 +92,7 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
     let mut change = "identified".to_string();
     if a.model.is_some() {
         let pb = progress_bar(1, "refitting", quiet);
+        let camp = read_campaign(campaign).with_context(reading)?;
         let refit =
             zmp_validation::diagnose::augment::refit_structure(&camp, &ident.model, &dopts)?;
         pb.finish_and_clear();
