@@ -71,8 +71,12 @@ use zmp_validation::par::parallel_map;
 /// outside 4/8, closed 41/52, false effect 6/52); from 1040000 (run once on the code of
 /// ca4047f, the trunk law refitting the force limit and the swap's margin: singles 21/21,
 /// saturation and coupling 5/6, pairs 7/12, triples 1/3, clean 10/10, outside 4/8, closed
-/// 40/52, false effect 7/52).
-const HELD_OUT_FIRST_SEED: u64 = 1_050_000;
+/// 40/52, false effect 7/52); from 1050000 (run once on the code of a056e76, the servo's
+/// creep and speed sub-steps and the local noise by Goertzel in: singles 20/21, saturation
+/// and coupling 5/6, pairs 9/12, triples 2/3, clean 10/10, outside 5/8, closed 42/52, false
+/// effect 6/52; then examined: spent draw 1040027, whose refit from the true delay drives
+/// the delay to zero beside the catalogue's play).
+const HELD_OUT_FIRST_SEED: u64 = 1_060_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
