@@ -750,9 +750,6 @@ pub fn identify_with_progress(
     opts: &IdentifyOptions,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<Identification, IdentifyError> {
-    if campaign.records.is_empty() {
-        return Err(IdentifyError::Empty);
-    }
     identify_analysed(
         analyse_records(campaign, opts, progress),
         campaign.name.clone(),

@@ -6,8 +6,8 @@ use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 use zmp_validation::campaign::{read_campaign, read_manifest};
 use zmp_validation::identify::{
-    analyse_folder, identify_analysed, identify_with_progress, report::write_report, summary_json,
-    write_model, Identification, IdentifyOptions,
+    analyse_folder, analyse_records, identify_analysed, identify_with_progress,
+    report::write_report, summary_json, write_model, Identification, IdentifyOptions,
 };
 use zmp_validation::io::{check_output_file, claim_dir, REPORT_MARKER};
 
@@ -74,10 +74,17 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
         ..IdentifyOptions::default()
     };
     // Each record is analysed as it is read and its columns dropped (the campaign's data is
-    // never all in memory); only a starting model's refit below needs the data again.
+    // never all in memory), unless a starting model's refit below needs the data: then the
+    // campaign is read once and kept.
     let pb = progress_bar(manifest.records.len() as u64, "reading and fitting", quiet);
-    let fits = analyse_folder(campaign, &manifest, &opts, &|d| pb.set_position(d as u64))
-        .with_context(reading)?;
+    let progress = |d: usize| pb.set_position(d as u64);
+    let (fits, camp) = if a.model.is_some() {
+        let camp = read_campaign(campaign).with_context(reading)?;
+        (analyse_records(&camp, &opts, &progress), Some(camp))
+    } else {
+        let fits = analyse_folder(campaign, &manifest, &opts, &progress).with_context(reading)?;
+        (fits, None)
+    };
     pb.finish_and_clear();
     let ident = identify_analysed(fits, manifest.name.clone(), &opts)?;
     // A model that names effects beyond the core: those are refitted with it.
@@ -90,11 +97,9 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
     };
     let mut ident = ident;
     let mut change = "identified".to_string();
-    if a.model.is_some() {
+    if let Some(camp) = &camp {
         let pb = progress_bar(1, "refitting", quiet);
-        let camp = read_campaign(campaign).with_context(reading)?;
-        let refit =
-            zmp_validation::diagnose::augment::refit_structure(&camp, &ident.model, &dopts)?;
+        let refit = zmp_validation::diagnose::augment::refit_structure(camp, &ident.model, &dopts)?;
         pb.finish_and_clear();
         if let Some(r) = refit {
             if !quiet {
