@@ -45,7 +45,11 @@ fn saturation_with_link() {
             servo: Some((25.0, 0.9)),
             link,
         };
-        for &(kind, value) in &[("acceleration_saturation", 0.5), ("coulomb_friction", 0.3)] {
+        for &(kind, value) in &[
+            ("acceleration_saturation", 0.5),
+            ("coulomb_friction", 0.3),
+            ("coulomb_friction", 2.5),
+        ] {
             for &omega in &[0.5, 3.0, 9.0, 15.0] {
                 for &amp in &[0.003, 0.008] {
                     clear_describing_function_cache();

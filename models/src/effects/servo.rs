@@ -327,8 +327,19 @@ impl Servo {
     }
 
     /// [`Servo::step`] of the two-body loop: the exact linear step while the servo effects add
-    /// a constant force (as the rigid servo's), RK4 where they switch or clamp.
+    /// a constant force (as the rigid servo's), the creep where friction holds the joint
+    /// (`creep.rs`), RK4 where they switch or clamp.
     fn step_linked(&mut self, r: f64, limits: &mut [Box<dyn Effect>]) -> ServoState {
+        self.step_linked_with(r, limits, true)
+    }
+
+    /// [`Servo::step_linked`], creeping only if `creep` (without: the reference of the tests).
+    fn step_linked_with(
+        &mut self,
+        r: f64,
+        limits: &mut [Box<dyn Effect>],
+        creep: bool,
+    ) -> ServoState {
         let Some(link) = self.link.take() else {
             unreachable!("step_linked without a link")
         };
@@ -377,10 +388,18 @@ impl Servo {
             (c0 != 0.0 && (f1 - f0).abs() <= tol && (s[1] >= 0.0) == (e[1] >= 0.0) && stays(&e))
                 .then_some(e)
         });
-        let end = if let Some(e) = exact {
+        let k = if exact.is_none() {
+            limits.iter().map(|l| l.stiffness()).sum()
+        } else {
+            0.0
+        };
+        let crept = match exact {
+            None if creep => self.creep_linked(&link, &s, r0, r, k, limits),
+            _ => None,
+        };
+        let end = if let Some(e) = exact.or(crept) {
             e
         } else {
-            let k: f64 = limits.iter().map(|l| l.stiffness()).sum();
             let sub = link.substeps(self.h, k);
             let hs = self.h / sub as f64;
             let mut x = s;

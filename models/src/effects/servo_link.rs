@@ -91,6 +91,9 @@ pub struct Linked {
     /// gamma_free F`.
     phi_free: [[f64; 4]; 4],
     gamma_free: [f64; 4],
+    /// Exact steps of the link's part alone over a step and over half a step, the joint
+    /// moving at a constant velocity (the stuck servo's creep).
+    follow: [Follow; 2],
     pub xu: f64,
     pub vu: f64,
 }
@@ -136,6 +139,10 @@ impl Linked {
             speed,
             phi_free: rows(&phi_f),
             gamma_free: [g_f[0], g_f[1], g_f[2], g_f[3]],
+            follow: [
+                Follow::new(wm2, cm, link.drag, h),
+                Follow::new(wm2, cm, link.drag, 0.5 * h),
+            ],
             xu: 0.0,
             vu: 0.0,
         }
@@ -240,6 +247,37 @@ impl Linked {
         )
     }
 
+    /// The link's pull on the joint, `u s` of [`Linked::accelerations`], as `c0 + c1 v_J`
+    /// at the joint velocity `v_J` (the other parts of the state `s` held): `None` with play
+    /// (there the pull is not linear in it).
+    #[inline]
+    pub fn pull(&self, s: &[f64; 4]) -> Option<(f64, f64)> {
+        (self.half_play <= 0.0).then(|| {
+            (
+                self.u * (self.wm2 * (s[0] - s[2]) - self.cm * s[3]),
+                self.u * self.cm,
+            )
+        })
+    }
+
+    /// `1 / (1 - u)`: the joint's acceleration per unit of net force.
+    #[inline]
+    pub fn inv_joint(&self) -> f64 {
+        self.inv_joint
+    }
+
+    /// The link's part `(x_U, v_U)` after a step (`half`: half a step) in which the joint moves
+    /// from `x_j` at the constant velocity `v_j`: exact (the link is linear in the joint's
+    /// motion, which is then a ramp).
+    #[inline]
+    pub fn follow(&self, half: bool, (xu, vu): (f64, f64), x_j: f64, v_j: f64) -> (f64, f64) {
+        self.follow[usize::from(half)].step(
+            (xu, vu),
+            self.wm2 * x_j + self.cm * v_j,
+            self.wm2 * v_j,
+        )
+    }
+
     /// RK4 sub-steps of a step `h` whose servo effects have stiffness `k` (1/s, against the
     /// joint's velocity, per unit of the axis's inertia).
     pub fn substeps(&self, h: f64, k: f64) -> usize {
@@ -258,6 +296,42 @@ impl Linked {
     /// The linear loop's continuous state matrix and reference input (for its periodic orbit).
     pub fn system(&self, wn2: f64, two_zeta_wn: f64) -> (DMatrix<f64>, DVector<f64>) {
         system(self.u, self.wm2, self.cm, self.drag, wn2, two_zeta_wn)
+    }
+}
+
+/// Exact first-order-hold step of the link's part `[x_U, v_U]` driven by the joint,
+/// `x_U'' = w_m^2 (x_J - x_U) + c_m (v_J - v_U) - drag v_U`, the drive `w_m^2 x_J + c_m v_J`
+/// a ramp.
+#[derive(Debug, Clone)]
+struct Follow {
+    t: f64,
+    phi: [[f64; 2]; 2],
+    g0: [f64; 2],
+    /// `gamma1 / t`.
+    g1: [f64; 2],
+}
+
+impl Follow {
+    fn new(wm2: f64, cm: f64, drag: f64, t: f64) -> Follow {
+        let a = DMatrix::from_row_slice(2, 2, &[0.0, 1.0, -wm2, -cm - drag]);
+        let b = DVector::from_row_slice(&[0.0, 1.0]);
+        let (phi, g0, g1) = discretise_foh(&a, &b, t);
+        Follow {
+            t,
+            phi: [[phi[(0, 0)], phi[(0, 1)]], [phi[(1, 0)], phi[(1, 1)]]],
+            g0: [g0[0], g0[1]],
+            g1: [g1[0] / t, g1[1] / t],
+        }
+    }
+
+    /// The state after the step, the drive starting at `w0` and rising at `rate` per second.
+    #[inline]
+    fn step(&self, (x, v): (f64, f64), w0: f64, rate: f64) -> (f64, f64) {
+        let dw = rate * self.t;
+        (
+            self.phi[0][0] * x + self.phi[0][1] * v + self.g0[0] * w0 + self.g1[0] * dw,
+            self.phi[1][0] * x + self.phi[1][1] * v + self.g0[1] * w0 + self.g1[1] * dw,
+        )
     }
 }
 
