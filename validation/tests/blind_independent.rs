@@ -75,8 +75,11 @@ use zmp_validation::par::parallel_map;
 /// creep and speed sub-steps and the local noise by Goertzel in: singles 20/21, saturation
 /// and coupling 5/6, pairs 9/12, triples 2/3, clean 10/10, outside 5/8, closed 42/52, false
 /// effect 6/52; then examined: spent draw 1040027, whose refit from the true delay drives
-/// the delay to zero beside the catalogue's play).
-const HELD_OUT_FIRST_SEED: u64 = 1_060_000;
+/// the delay to zero beside the catalogue's play); from 1060000 (run once on the code of
+/// 940b574, the linked servo's creep in, the diagnosis otherwise that of 1050000: singles
+/// 21/21, saturation and coupling 6/6, pairs 8/12, triples 2/3, clean 10/10, outside 6/8,
+/// closed 46/52, false effect 7/52; its summary lines were read, no draw of it was examined).
+const HELD_OUT_FIRST_SEED: u64 = 1_070_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
