@@ -187,13 +187,17 @@ impl Servo {
 }
 
 #[cfg(test)]
-mod tests_support {
+mod tests {
     use crate::effect::{BuildContext, Effect};
+    use crate::effects::servo::Servo;
+    use crate::effects::servo_link::TrunkLink;
     use crate::{lookup, Axis, Binding};
 
-    pub(super) fn friction(level: f64, v_s: f64) -> Vec<Box<dyn Effect>> {
+    const H: f64 = 0.005;
+
+    fn friction(level: f64, v_s: f64) -> Vec<Box<dyn Effect>> {
         let ctx = BuildContext {
-            h: 0.005,
+            h: H,
             binding: Binding::Axis(Axis::X),
             servo: Some((30.0, 1.0)),
             link: None,
@@ -203,76 +207,77 @@ mod tests_support {
             &[level, v_s],
         )]
     }
-}
 
-#[cfg(test)]
-mod tests {
-    use super::tests_support::friction;
-    use crate::effects::servo::Servo;
+    /// Two periods of the reference `amplitude sin(omega t)` through `servo_step` (the
+    /// servo's position after a step to `r`, and whether the creep took that step) and
+    /// `reference_step` (the reference integration's position). Where the friction holds the
+    /// servo most of the time (`sticks`) the creep must be taken on a quarter of the steps at
+    /// least (it is what is being tested), and the positions must agree to 1e-4 of the
+    /// amplitude (RK4's own sub-step error is of that order).
+    fn follows_reference(
+        (level, v_s, omega, amplitude, sticks): (f64, f64, f64, f64, bool),
+        mut servo_step: impl FnMut(f64) -> (f64, bool),
+        mut reference_step: impl FnMut(f64) -> f64,
+    ) {
+        let steps = (2.0 * 2.0 * std::f64::consts::PI / omega / H) as usize;
+        let (mut worst, mut crept) = (0.0f64, 0);
+        for k in 1..=steps {
+            let r = amplitude * (omega * k as f64 * H).sin();
+            let (x, creeping) = servo_step(r);
+            crept += usize::from(creeping);
+            worst = worst.max((x - reference_step(r)).abs());
+        }
+        assert!(
+            !sticks || crept >= steps / 4,
+            "level {level} omega {omega}: crept {crept} of {steps} steps"
+        );
+        assert!(
+            worst <= 1e-4 * amplitude,
+            "level {level} v_s {v_s} omega {omega}: {worst:e} m apart (amplitude {amplitude})"
+        );
+    }
 
     /// Sticking and slipping runs: the servo's steps (creeping where stuck, RK4 on the
     /// sub-steps of the step's speeds where it slips) against RK4 on every step with the
-    /// sub-steps of zero velocity. Where the friction exceeds the demand most of
-    /// the time, the creep must be taken on a quarter of the steps at least (it is what is
-    /// being tested), and the positions must agree to 1e-4 of the amplitude (RK4's own
-    /// sub-step error is of that order).
+    /// sub-steps of zero velocity ([`follows_reference`]).
     #[test]
     fn creeping_and_speed_stepped_servo_follows_rk4_through_stick_and_slip() {
-        let h = 0.005;
-        for &(level, v_s, omega, amplitude, sticks) in &[
+        for &case in &[
             (2.5, 1e-4, 0.5, 0.003, true),
             (1.0, 1e-4, 2.0, 0.003, false),
             (2.0, 1e-5, 1.0, 0.004, true),
             (0.5, 1e-4, 6.0, 0.002, false),
         ] {
-            let mut limits = friction(level, v_s);
-            let mut reference = friction(level, v_s);
-            let mut servo = Servo::new(30.0, 1.0, h);
-            let mut plain = Servo::new(30.0, 1.0, h);
+            let mut limits = friction(case.0, case.1);
+            let mut reference = friction(case.0, case.1);
+            let mut servo = Servo::new(30.0, 1.0, H);
+            let mut plain = Servo::new(30.0, 1.0, H);
             servo.reset(0.0);
             plain.reset(0.0);
-            let steps = (2.0 * 2.0 * std::f64::consts::PI / omega / h) as usize;
-            let (mut worst, mut crept) = (0.0f64, 0);
-            for k in 1..=steps {
-                let r = amplitude * (omega * k as f64 * h).sin();
-                let stiffness: f64 = limits.iter().map(|l| l.stiffness()).sum();
-                if servo
-                    .creep(servo.r_prev, r, stiffness, &mut limits)
-                    .is_some()
-                {
-                    crept += 1;
-                }
-                let x = servo.step(r, &mut limits).position;
-                (plain.x, plain.v) = plain.rk4(plain.r_prev, r - plain.r_prev, &mut reference);
-                plain.r_prev = r;
-                worst = worst.max((x - plain.x).abs());
-            }
-            assert!(
-                !sticks || crept >= steps / 4,
-                "level {level} omega {omega}: crept {crept} of {steps} steps"
-            );
-            assert!(
-                worst <= 1e-4 * amplitude,
-                "level {level} v_s {v_s} omega {omega}: {worst:e} m apart (amplitude {amplitude})"
+            follows_reference(
+                case,
+                |r| {
+                    let stiffness: f64 = limits.iter().map(|l| l.stiffness()).sum();
+                    let crept = servo
+                        .creep(servo.r_prev, r, stiffness, &mut limits)
+                        .is_some();
+                    (servo.step(r, &mut limits).position, crept)
+                },
+                |r| {
+                    (plain.x, plain.v) = plain.rk4(plain.r_prev, r - plain.r_prev, &mut reference);
+                    plain.r_prev = r;
+                    plain.x
+                },
             );
         }
     }
-}
-
-#[cfg(test)]
-mod linked_tests {
-    use super::tests_support::friction;
-    use crate::effects::servo::Servo;
-    use crate::effects::servo_link::TrunkLink;
 
     /// The flexible trunk inside the servo, its joint held by friction and slipping: the
     /// loop's steps (creeping where the joint is stuck) against the same loop without the
-    /// creep (RK4 on the sub-steps of zero velocity). Where the friction holds the joint most
-    /// of the time the creep must be taken on a quarter of the steps at least, and the CoM
-    /// (joint and ringing trunk) must agree to 1e-4 of the amplitude, as the rigid servo's.
+    /// creep (RK4 on the sub-steps of zero velocity); the CoM (joint and ringing trunk) is
+    /// compared ([`follows_reference`]).
     #[test]
     fn creeping_linked_servo_follows_rk4_through_stick_and_slip() {
-        let h = 0.005;
         for &(level, v_s, omega, amplitude, link, sticks) in &[
             (2.5, 1e-4, 0.5, 0.003, (14.0, 0.08, 0.35, 0.29), true),
             (2.5, 1e-4, 3.0, 0.003, (14.0, 0.08, 0.35, 0.29), true),
@@ -283,34 +288,22 @@ mod linked_tests {
             let link = TrunkLink::flexible(link.0, link.1, link.2, link.3);
             let mut limits = friction(level, v_s);
             let mut reference = friction(level, v_s);
-            let mut servo = Servo::new(30.0, 1.0, h).with_link(link);
-            let mut plain = Servo::new(30.0, 1.0, h).with_link(link);
+            let mut servo = Servo::new(30.0, 1.0, H).with_link(link);
+            let mut plain = Servo::new(30.0, 1.0, H).with_link(link);
             servo.reset(0.0);
             plain.reset(0.0);
-            let steps = (2.0 * 2.0 * std::f64::consts::PI / omega / h) as usize;
-            let (mut worst, mut crept) = (0.0f64, 0);
-            for k in 1..=steps {
-                let r = amplitude * (omega * k as f64 * h).sin();
-                let stiffness: f64 = limits.iter().map(|l| l.stiffness()).sum();
-                let l = servo.link.as_deref().unwrap();
-                let s = [servo.x, servo.v, l.xu, l.vu];
-                if servo
-                    .creep_linked(l, &s, servo.r_prev, r, stiffness, &mut limits)
-                    .is_some()
-                {
-                    crept += 1;
-                }
-                let x = servo.step(r, &mut limits).position;
-                let y = plain.step_linked_with(r, &mut reference, false).position;
-                worst = worst.max((x - y).abs());
-            }
-            assert!(
-                !sticks || crept >= steps / 4,
-                "level {level} omega {omega}: crept {crept} of {steps} steps"
-            );
-            assert!(
-                worst <= 1e-4 * amplitude,
-                "level {level} v_s {v_s} omega {omega}: {worst:e} m apart (amplitude {amplitude})"
+            follows_reference(
+                (level, v_s, omega, amplitude, sticks),
+                |r| {
+                    let stiffness: f64 = limits.iter().map(|l| l.stiffness()).sum();
+                    let l = servo.link.as_deref().unwrap();
+                    let s = [servo.x, servo.v, l.xu, l.vu];
+                    let crept = servo
+                        .creep_linked(l, &s, servo.r_prev, r, stiffness, &mut limits)
+                        .is_some();
+                    (servo.step(r, &mut limits).position, crept)
+                },
+                |r| plain.step_linked_with(r, &mut reference, false).position,
             );
         }
     }
