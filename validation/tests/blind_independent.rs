@@ -80,8 +80,12 @@ use zmp_validation::par::parallel_map;
 /// 21/21, saturation and coupling 6/6, pairs 8/12, triples 2/3, clean 10/10, outside 6/8,
 /// closed 46/52, false effect 7/52; then examined: 1060035, a delay beside play, where the
 /// play alone is "explained" at 4.67 per component and the search, forced on, names the delay
-/// and then a false mode).
-const HELD_OUT_FIRST_SEED: u64 = 1_070_000;
+/// and then a false mode); from 1070000 (run once on the code of 1d809c6, the search going
+/// on past "explained" for an effect that removes half of the excess: singles 18/21,
+/// saturation and coupling 6/6, pairs 6/12, triples 2/3, clean 10/10, outside 4/8, closed
+/// 41/52, false effect 7/52; then examined: 1070027, a delay beside play, where the best
+/// further effect past "explained" is a mode at 35 % of the excess).
+const HELD_OUT_FIRST_SEED: u64 = 1_080_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
