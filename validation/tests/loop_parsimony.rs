@@ -14,8 +14,9 @@
 //! (more than half the excess error) but removed only 6 % of the excess chi-square, which the
 //! few lowest-noise records dominate with a misfit of something else; the search's test
 //! asked for 10 % and the loop ended at 2.7x with nothing found. The test now also takes half
-//! of the excess error (`select::MIN_ERROR_FRACTION`). The other, seed 1030039, lost a delay
-//! to a structural mode in the swap pass (below).
+//! of the excess error (`select::MIN_ERROR_FRACTION`). Seed 1030039 lost a delay to a
+//! structural mode in the swap pass, and seed 1060035 a delay beside play where the play alone
+//! already explained the data (both below).
 
 #[path = "support/indep_loop.rs"]
 mod indep_loop;
@@ -28,11 +29,12 @@ fn an_effect_the_later_ones_made_redundant_is_dropped() {
     for truth in ["coulomb_friction", "sensor_lowpass"] {
         assert!(r.found.iter().any(|f| f == truth), "found {:?}", r.found);
     }
-    assert!(
-        !r.found.iter().any(|f| f == "structural_mode"),
-        "found {:?}",
-        r.found
-    );
+    // Once the friction and the low-pass are in, a play takes 53 % of the excess held-out
+    // chi-square left, but that excess is at the noise (1.76 per component): nothing more is
+    // added past "explained" (`select::dominates`).
+    for absent in ["structural_mode", "backlash"] {
+        assert!(!r.found.iter().any(|f| f == absent), "found {:?}", r.found);
+    }
     assert!(r.explained, "final {:.2}x", r.final_error / r.noise_floor);
     assert!(r.final_error <= 1.5 * r.noise_floor);
 }
@@ -94,4 +96,32 @@ fn a_delay_is_not_swapped_for_a_mode_that_fits_a_little_better() {
         r.found
     );
     assert!(r.final_error < 2.0 * r.noise_floor);
+}
+
+/// Seed 1060035 of the spent held-out range: a 23 ms delay beside play. The play alone
+/// explains the data (1.07x the floor, 4.67 per component, under the 5 of "explained") and
+/// the search used to stop there; the delay then removes 83 % of the excess held-out
+/// chi-square left, which an effect the data do not have does not (13-25 % on the draws where
+/// the search went on past "explained" with its test alone). The search now goes on past
+/// "explained" for such an effect (`select::dominates`), and says so in the evidence.
+#[test]
+fn past_explained_an_effect_that_removes_most_of_what_is_left_is_added() {
+    let r = loop_on(1_060_035, "pair:time_delay,backlash");
+    let mut found = r.found.clone();
+    found.sort();
+    assert_eq!(found, ["backlash", "time_delay"], "found {:?}", r.found);
+    let delay = r
+        .diagnoses
+        .iter()
+        .flat_map(|d| &d.findings)
+        .find(|f| f.effect == "time_delay" && f.significant)
+        .expect("the delay's finding");
+    assert!(
+        delay
+            .evidence
+            .contains("added though the model without it explains the data"),
+        "{}",
+        delay.evidence
+    );
+    assert!(r.explained, "final {:.2}x", r.final_error / r.noise_floor);
 }

@@ -391,6 +391,12 @@ fn diagnose_observations_in_budget(
                         " (found together with {}: neither alone passes the held-out test)",
                         step.added[1 - k]
                     ));
+                } else if stop(&parent) {
+                    f.evidence.push_str(&format!(
+                        " (added though the model without it explains the data: it removes \
+                         {:.0} % of the excess held-out chi-square left there)",
+                        100.0 * step.gain.total_fraction
+                    ));
                 }
                 findings.push(f);
                 selected.push((name.clone(), step.scored.error));
