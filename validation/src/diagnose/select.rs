@@ -16,9 +16,10 @@
 //! passes, the best few are paired (two effects acting together, each of which alone is
 //! masked by the other) and a pair is added when it passes and each of its effects adds
 //! significantly to the other. Once the structure explains the data, the search goes on only
-//! while one effect removes most of what is left ([`dominates`]). Then one swap pass: each effect but the last is taken out and
-//! the others' best replacement for it tried (see [`swap`]); and backward elimination: an
-//! effect that, given the others, no longer passes the test is dropped (see [`prune`]).
+//! while one effect removes most of what is left ([`dominates`]). Then one swap pass: each
+//! effect but the last is taken out and the others' best replacement for it tried (see
+//! [`swap`]); and backward elimination: an effect that, given the others, no longer passes the
+//! test is dropped (see [`prune`]).
 
 use super::candidates::CATALOGUE;
 use super::engine::{addable, score_candidate, score_candidates, Scored};
