@@ -276,7 +276,7 @@ pub fn search(
                 .collect();
         }
         let children = plausible(children, &current, obs);
-        if explained {
+        let single = if explained {
             // Past "explained": only an effect that removes most of what is left.
             let best = children
                 .iter()
@@ -293,21 +293,14 @@ pub fn search(
                     100.0 * DOMINANT_FRACTION
                 ));
             }
-            let Some(best) = best.filter(|b| dominates(&current, b)) else {
-                break;
-            };
-            progress(&format!("selected {}", best.effect));
-            let g = gain(&current, best);
-            added.push(best.effect.clone());
-            steps.push(Step {
-                added: vec![best.effect.clone()],
-                scored: best.clone(),
-                gain: g,
-            });
-            current = best.clone();
-            continue;
-        }
-        if let Some(best) = choose(&current, &children) {
+            match best.filter(|b| dominates(&current, b)) {
+                Some(b) => Some(b),
+                None => break,
+            }
+        } else {
+            choose(&current, &children)
+        };
+        if let Some(best) = single {
             progress(&format!("selected {}", best.effect));
             let g = gain(&current, best);
             added.push(best.effect.clone());
