@@ -408,19 +408,28 @@ impl Servo {
                 let (aj, au) = link.accelerations(y, force);
                 [y[1], aj, y[3], au]
             };
+            // Element by element, without `array::map` closures (which did not inline here
+            // and cost a tenth of a friction-heavy loop); the same arithmetic, bit for bit.
+            let add = |y: &[f64; 4], d: &[f64; 4], t: f64| -> [f64; 4] {
+                [
+                    y[0] + t * d[0],
+                    y[1] + t * d[1],
+                    y[2] + t * d[2],
+                    y[3] + t * d[3],
+                ]
+            };
+            let h6 = hs / 6.0;
             for q in 0..sub {
                 let ra = r0 + dr * (q as f64 / sub as f64);
                 let rm = r0 + dr * ((q as f64 + 0.5) / sub as f64);
                 let rb = r0 + dr * ((q + 1) as f64 / sub as f64);
-                let add = |y: &[f64; 4], d: &[f64; 4], t: f64| -> [f64; 4] {
-                    [0, 1, 2, 3].map(|i| y[i] + t * d[i])
-                };
                 let k1 = f(limits, ra, &x);
                 let k2 = f(limits, rm, &add(&x, &k1, 0.5 * hs));
                 let k3 = f(limits, rm, &add(&x, &k2, 0.5 * hs));
                 let k4 = f(limits, rb, &add(&x, &k3, hs));
-                x = [0, 1, 2, 3]
-                    .map(|i| x[i] + hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
+                for i in 0..4 {
+                    x[i] += h6 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+                }
             }
             x
         };
