@@ -85,8 +85,12 @@ use zmp_validation::par::parallel_map;
 /// saturation and coupling 6/6, pairs 6/12, triples 2/3, clean 10/10, outside 4/8, closed
 /// 41/52, false effect 7/52; then examined: 1070027, a delay beside play, where the best
 /// further effect past "explained" is a mode at 35 % of the excess, and 1070011, a lone
-/// friction whose drawn values in the model leave 2.6x the floor at the clamped records).
-const HELD_OUT_FIRST_SEED: u64 = 1_080_000;
+/// friction whose drawn values in the model leave 2.6x the floor at the clamped records);
+/// from 1080000 (run once on the code of 6f92688, the friction's `tanh` from one `exp` and
+/// the linked servo's eigenvalue sub-steps in: singles 19/21, saturation and coupling 4/6,
+/// pairs 11/12, triples 2/3, clean 10/10, outside 5/8, closed 43/52, false effect 6/52; not
+/// examined).
+const HELD_OUT_FIRST_SEED: u64 = 1_090_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
