@@ -196,10 +196,13 @@ fn a_force_limited_servo_driving_a_flexible_trunk_matches_the_independent_robot(
 /// must end within 2x the floor with its modes inside the servo, and seed 14, whose filter was
 /// already close, explained. Thresholds fixed before the runs (seed 23: a first version, with
 /// no round after the law, ended at 2.13x, the y mode unnamed; seed 14: the suite's closure
-/// rule, 2x and explained, against 1.11x measured when the starts were added).
+/// rule, 2x and explained, against 1.11x measured when the starts were added). Since the mode
+/// candidate is itself fitted inside the servo when that fits better (`engine::score_candidate`,
+/// held-out draw 1080004 below), a mode can enter the model inside the servo directly
+/// (`+structural_mode`) instead of by the loop's `trunk-in-servo` version: the version that
+/// first puts a link inside the servo is judged, whichever it is.
 #[test]
 fn the_loop_moves_a_mode_the_filter_cannot_explain_inside_the_servo() {
-    let law = zmp_validation::diagnose::iterate::TRUNK_IN_SERVO;
     let mut summary = String::new();
     for seed in [23, 14] {
         let r = indep_loop::loop_on(seed, SCENARIO);
@@ -212,8 +215,12 @@ fn the_loop_moves_a_mode_the_filter_cannot_explain_inside_the_servo() {
         let first = &r
             .versions
             .iter()
-            .find(|(_, a)| a.change == law)
-            .unwrap_or_else(|| panic!("seed {seed}: no {law} version: {changes:?}"))
+            .find(|(_, a)| {
+                trunks(&a.spec)
+                    .iter()
+                    .any(|e| e.value("in_servo") == Some(1.0))
+            })
+            .unwrap_or_else(|| panic!("seed {seed}: no link inside the servo: {changes:?}"))
             .1;
         if seed == 23 {
             assert!(
@@ -251,9 +258,11 @@ fn the_loop_moves_a_mode_the_filter_cannot_explain_inside_the_servo() {
             r.final_error / r.noise_floor
         );
         summary.push_str(&format!(
-            "- development seed {seed}: versions {}; the first mode as a filter left {:.2}x the \
-             noise floor, inside the servo {:.2}x; at the end {:.2}x ({}), effects found: {}.\n",
+            "- development seed {seed}: versions {}; the version that put a link inside the \
+             servo ({}) took the error from {:.2}x the noise floor to {:.2}x; at the end {:.2}x \
+             ({}), effects found: {}.\n",
             changes.join(", "),
+            first.change,
             first.error_before / r.noise_floor,
             first.error_after / r.noise_floor,
             r.final_error / r.noise_floor,
@@ -314,4 +323,35 @@ fn range(seed: u64) -> &'static str {
     } else {
         "held-out"
     }
+}
+
+/// Seed 1080004 of the spent held-out range (examined after its one run): a mode on each
+/// trunk plane, x at 20 rad/s above the sweep's highest 15 and y at 15, the limit (1.69 m/s2)
+/// clipping six records. As a filter of the CoM reference the best mode fit left a
+/// chi-square of 72 000 (the drawn robot's own values: 1 170) and a held-out error above the
+/// model's without it, so the loop added nothing and ended unexplained at 11.5x the noise
+/// floor: it tries the law inside the servo only for a mode it has added. The mode candidate
+/// is now also fitted inside the servo from its filter fit (`engine::score_candidate`).
+/// Thresholds fixed before the run: the mode named first, no other effect, the suite's
+/// closure rule (explained, within 2x), the links inside the servo.
+#[test]
+fn a_mode_the_force_limit_hides_from_the_filter_law_is_named_inside_the_servo() {
+    let r = indep_loop::loop_on(1_080_004, SCENARIO);
+    assert_eq!(r.found, ["structural_mode"], "found {:?}", r.found);
+    assert!(
+        r.explained && r.final_error < 2.0 * r.noise_floor,
+        "{} at {:.2}x the floor",
+        if r.explained {
+            "explained"
+        } else {
+            "unexplained"
+        },
+        r.final_error / r.noise_floor
+    );
+    let trunks = trunks(&r.final_model);
+    assert!(
+        trunks.len() == 2 && trunks.iter().all(|e| e.value("in_servo") == Some(1.0)),
+        "{}",
+        r.final_model.to_toml()
+    );
 }

@@ -663,6 +663,31 @@ fn trunk_frees(
     out
 }
 
+/// The free parameters of every flexible trunk of `spec`, at their values, within the mode
+/// candidate's bounds ([`trunk_frees`]): a mode candidate's own parameters once its links
+/// have been moved inside their servo ([`trunk_in_servo`]).
+pub fn trunk_own_frees(spec: &ModelSpec, r: &DataRange) -> Vec<Free> {
+    let mut out = Vec::new();
+    for e in spec
+        .effects
+        .iter()
+        .filter(|e| e.info.kind == "flexible_trunk")
+    {
+        let v = |p: &str| e.value(p).unwrap_or(0.0);
+        let mut f = trunk_frees(&[vec![e.binding]], v("omega_n"), v("zeta"), v("share"), r);
+        f[3] = Free::new(
+            "flexible_trunk",
+            vec![e.binding],
+            "drive",
+            v("drive"),
+            0.0,
+            0.8,
+        );
+        out.extend(f);
+    }
+    out
+}
+
 fn sensor_drift(spec: &ModelSpec, _r: &DataRange) -> Vec<Start> {
     let s = with(spec, "sensor_drift", &AXES, &[0.0, 0.0]);
     let frees = AXES
