@@ -6,6 +6,11 @@ use super::lm::Bounded;
 use super::observe::Observation;
 use zmp_models::{lookup, Axis, Binding, Channel, EffectInstance, ModelSpec};
 
+mod modes;
+
+use modes::structural_mode;
+pub use modes::{mode_free_axes, plausible, trunk_in_servo, trunk_law_starts, trunk_own_frees};
+
 /// One scalar the fit moves; it sets `param` of `kind` at every binding listed.
 #[derive(Debug, Clone)]
 pub struct Free {
@@ -16,7 +21,7 @@ pub struct Free {
 }
 
 impl Free {
-    fn new(
+    pub(super) fn new(
         kind: &'static str,
         bindings: Vec<Binding>,
         param: &'static str,
@@ -389,305 +394,6 @@ fn sensor_lowpass(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     )
 }
 
-/// The `k`-th of `n` starting frequencies of a structural mode: log-spaced from a sixth of the
-/// campaign's highest frequency to two and a half times it (a mode above the band still bends
-/// its phase and magnitude there; one far below it would be a drift, not a mode).
-fn mode_start(r: &DataRange, k: usize, n: usize) -> f64 {
-    let lo = (r.omega_max / 6.0).max(r.omega_min);
-    let hi = 2.5 * r.omega_max;
-    lo * (hi / lo).powf((k as f64 + 0.5) / n as f64)
-}
-
-/// The axes `[x, y]` with no structural mode yet (in either form: on the ZMP path of that
-/// output axis or a flexible link of that input axis).
-pub fn mode_free_axes(spec: &ModelSpec) -> [bool; 2] {
-    [0, 1].map(|k| {
-        !["structural_mode", "flexible_trunk"]
-            .iter()
-            .any(|kind| spec.get(kind, AXES[k]).is_some())
-    })
-}
-
-/// The axis variants of a structural mode: all of [`axis_variants`] on a model without one;
-/// on a model with a mode on one axis, the other axis alone (a second plane's mode).
-fn mode_variants(spec: &ModelSpec, r: &DataRange) -> Vec<Vec<Binding>> {
-    let free = mode_free_axes(spec);
-    if free == [true, true] {
-        return axis_variants(r);
-    }
-    (0..2)
-        .filter(|&k| free[k] && r.axes_excited[k])
-        .map(|k| vec![AXES[k]])
-        .collect()
-}
-
-fn structural_mode(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
-    let mut out = flexible_trunk(spec, r);
-    let n = 6;
-    for bindings in mode_variants(spec, r) {
-        for k in 0..n {
-            let wm = mode_start(r, k, n);
-            for zeta in [0.05, 0.3] {
-                // A flexible link may carry only part of the moving mass: the share starts
-                // high and is fitted.
-                let share = 0.8;
-                let s = with(spec, "structural_mode", &bindings, &[wm, zeta, share]);
-                out.push((
-                    s,
-                    vec![
-                        Free::new(
-                            "structural_mode",
-                            bindings.clone(),
-                            "omega_n",
-                            wm,
-                            0.5 * r.omega_min,
-                            3.0 * r.omega_max,
-                        ),
-                        // A lightly damped mode: at most MODE_ZETA_MAX, so that it cannot take
-                        // the well-damped servo's place (two second-order low-passes in the
-                        // command path are otherwise interchangeable).
-                        Free::new(
-                            "structural_mode",
-                            bindings.clone(),
-                            "zeta",
-                            zeta,
-                            0.005,
-                            MODE_ZETA_MAX,
-                        ),
-                        Free::new(
-                            "structural_mode",
-                            bindings.clone(),
-                            "share",
-                            share,
-                            0.05,
-                            1.0,
-                        ),
-                    ],
-                ));
-            }
-        }
-    }
-    out
-}
-
-/// Starting frequencies of a flexible trunk ([`mode_start`] of this many): the candidate's and
-/// the trunk law's ([`trunk_law_starts`]).
-const TRUNK_STARTS: usize = 5;
-
-/// The flexible-trunk form of a structural mode: per input axis, a share of the mass on a
-/// lightly damped link inside the servo loop.
-fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
-    let mut out = Vec::new();
-    let n = TRUNK_STARTS;
-    // The second plane's link follows the law the loop chose for the first (`trunk_in_servo`).
-    // A servo drives one link: not where a backlash sits inside it.
-    let law = if spec
-        .effects
-        .iter()
-        .any(|e| e.info.kind == "flexible_trunk" && e.value("in_servo") == Some(1.0))
-        && !spec
-            .effects
-            .iter()
-            .any(|e| e.info.kind == "backlash" && e.value("in_servo") == Some(1.0))
-    {
-        1.0
-    } else {
-        0.0
-    };
-    for bindings in mode_variants(spec, r) {
-        for k in 0..n {
-            let wm = mode_start(r, k, n);
-            let (zeta, share) = (0.08, 0.4);
-            let s = with(
-                spec,
-                "flexible_trunk",
-                &bindings,
-                &[wm, zeta, share, 0.3, law],
-            );
-            out.push((
-                s,
-                trunk_frees(std::slice::from_ref(&bindings), wm, zeta, share, r),
-            ));
-        }
-    }
-    // Both axes, each with its own link (two trunk planes need not ring alike).
-    if r.axes_excited[0] && r.axes_excited[1] && mode_free_axes(spec) == [true, true] {
-        for k in 0..n {
-            let wm = mode_start(r, k, n);
-            let (zeta, share) = (0.08, 0.4);
-            let s = with(spec, "flexible_trunk", &AXES, &[wm, zeta, share, 0.3]);
-            let each: Vec<Vec<Binding>> = AXES.iter().map(|b| vec![*b]).collect();
-            out.push((s, trunk_frees(&each, wm, zeta, share, r)));
-        }
-    }
-    out
-}
-
-/// The model with its structural modes stepped inside their servo's loop: a flexible trunk
-/// with `in_servo = 0` switched to 1, a mode on the ZMP path (`structural_mode`) replaced by a
-/// flexible trunk at the same axis started from its frequency, damping and share (and a third
-/// of the axis's inertia in the drive), with `in_servo = 1`. `None` when the model has no mode
-/// stepped as a filter. The parameters are starts: the caller refits them.
-pub fn trunk_in_servo(spec: &ModelSpec) -> Option<ModelSpec> {
-    let mut out = spec.clone();
-    let mut changed = false;
-    // A servo drives one link: a mode stays a filter where a backlash sits inside the servo.
-    let play_inside = |b: Binding| spec.value("backlash", b, "in_servo") == Some(1.0);
-    for e in spec.effects.iter().filter(|e| !play_inside(e.binding)) {
-        match e.info.kind {
-            "flexible_trunk" if e.value("in_servo") != Some(1.0) => {
-                out.set_value("flexible_trunk", e.binding, "in_servo", 1.0);
-                changed = true;
-            }
-            "structural_mode" => {
-                let v = |p: &str, d: f64| e.value(p).unwrap_or(d);
-                let values = [
-                    v("omega_n", 10.0),
-                    v("zeta", 0.1),
-                    v("share", 0.5).clamp(0.05, 0.95),
-                    0.3,
-                    1.0,
-                ];
-                add_effect(&mut out, "flexible_trunk", &[e.binding], &values);
-                changed = true;
-            }
-            _ => {}
-        }
-    }
-    let kept: Vec<_> = spec
-        .effects
-        .iter()
-        .filter(|e| e.info.kind == "structural_mode" && play_inside(e.binding))
-        .cloned()
-        .collect();
-    out.remove("structural_mode");
-    for e in kept {
-        out.insert(e);
-    }
-    changed.then_some(out)
-}
-
-/// Starts of a model whose links were just moved inside their servo ([`trunk_in_servo`]):
-/// `alt` itself (the filter's values), and typical links (damping 0.08, a third of the axis's
-/// inertia in the drive, four tenths of its mass on the link) at the filter's frequency and
-/// at the upper three of the mode candidate's starting frequencies. A filter fit that ran to
-/// its damping or drive bound, or settled on a wrong frequency because the filter cannot
-/// follow the records the force limit clips, is no start for the law inside the servo
-/// (development seed 14: y at 19 rad/s, damping 0.001, against a drawn 24.8 rad/s and 0.07).
-pub fn trunk_law_starts(alt: &ModelSpec, r: &DataRange) -> Vec<ModelSpec> {
-    let trunks: Vec<Binding> = alt
-        .effects
-        .iter()
-        .filter(|e| e.info.kind == "flexible_trunk")
-        .map(|e| e.binding)
-        .collect();
-    let typical = |omega: Option<f64>| {
-        let mut s = alt.clone();
-        for &b in &trunks {
-            if let Some(w) = omega {
-                s.set_value("flexible_trunk", b, "omega_n", w);
-                s.set_value("flexible_trunk", b, "share", 0.4);
-            }
-            s.set_value("flexible_trunk", b, "zeta", 0.08);
-            s.set_value("flexible_trunk", b, "drive", 0.3);
-        }
-        s
-    };
-    let n = TRUNK_STARTS;
-    let mut out = vec![alt.clone(), typical(None)];
-    out.extend((n - 3..n).map(|k| typical(Some(mode_start(r, k, n)))));
-    out
-}
-
-/// Upper bound of a structural mode's damping ratio in the fit: a resonance (peak gain
-/// `1/(2 zeta sqrt(1 - zeta^2))` = 1.36 at 0.4; none above 0.71). At 0.5 a random 15 %
-/// perturbation of G11 outside the catalogue was fitted as a mode of damping 0.43 once the
-/// noise's colour was right (`tests/diagnose_bad_input.rs`).
-const MODE_ZETA_MAX: f64 = 0.4;
-
-/// Whether a fitted candidate is the effect it names. A structural mode (either form) whose
-/// damping ratio ends at its cap is the data asking for a well-damped second-order filter,
-/// which is the servo low-pass's shape, not a ringing mode: it bends the response to absorb
-/// a misfit the catalogue does not name, and must not be reported as a resonance.
-pub fn plausible(frees: &[Free]) -> bool {
-    !frees.iter().any(|f| {
-        matches!(f.kind, "structural_mode" | "flexible_trunk")
-            && f.param == "zeta"
-            && f.bounds.value >= 0.98 * MODE_ZETA_MAX
-    })
-}
-
-/// The free parameters of a flexible trunk at each binding group.
-fn trunk_frees(
-    groups: &[Vec<Binding>],
-    wm: f64,
-    zeta: f64,
-    share: f64,
-    r: &DataRange,
-) -> Vec<Free> {
-    let mut out = Vec::new();
-    for b in groups {
-        out.push(Free::new(
-            "flexible_trunk",
-            b.clone(),
-            "omega_n",
-            wm,
-            0.5 * r.omega_min,
-            3.0 * r.omega_max,
-        ));
-        out.push(Free::new(
-            "flexible_trunk",
-            b.clone(),
-            "zeta",
-            zeta,
-            0.005,
-            MODE_ZETA_MAX,
-        ));
-        out.push(Free::new(
-            "flexible_trunk",
-            b.clone(),
-            "share",
-            share,
-            0.05,
-            0.95,
-        ));
-        out.push(Free::new(
-            "flexible_trunk",
-            b.clone(),
-            "drive",
-            0.3,
-            0.0,
-            0.8,
-        ));
-    }
-    out
-}
-
-/// The free parameters of every flexible trunk of `spec`, at their values, within the mode
-/// candidate's bounds ([`trunk_frees`]): a mode candidate's own parameters once its links
-/// have been moved inside their servo ([`trunk_in_servo`]).
-pub fn trunk_own_frees(spec: &ModelSpec, r: &DataRange) -> Vec<Free> {
-    let mut out = Vec::new();
-    for e in spec
-        .effects
-        .iter()
-        .filter(|e| e.info.kind == "flexible_trunk")
-    {
-        let v = |p: &str| e.value(p).unwrap_or(0.0);
-        let mut f = trunk_frees(&[vec![e.binding]], v("omega_n"), v("zeta"), v("share"), r);
-        f[3] = Free::new(
-            "flexible_trunk",
-            vec![e.binding],
-            "drive",
-            v("drive"),
-            0.0,
-            0.8,
-        );
-        out.extend(f);
-    }
-    out
-}
-
 fn sensor_drift(spec: &ModelSpec, _r: &DataRange) -> Vec<Start> {
     let s = with(spec, "sensor_drift", &AXES, &[0.0, 0.0]);
     let frees = AXES
@@ -823,7 +529,7 @@ pub fn model_kinds(effect: &str) -> &[&str] {
 mod tests {
     use super::*;
 
-    fn paper_with_limits(x: f64, y: f64) -> ModelSpec {
+    pub(super) fn paper_with_limits(x: f64, y: f64) -> ModelSpec {
         let mut spec = ModelSpec::parse(
             include_str!("../../../models/params/silo2-paper.toml"),
             "silo2-paper.toml",
@@ -834,7 +540,7 @@ mod tests {
         spec
     }
 
-    fn range() -> DataRange {
+    pub(super) fn range() -> DataRange {
         DataRange {
             omega_min: 0.5,
             omega_max: 15.0,
@@ -843,97 +549,6 @@ mod tests {
             op_span: [0.06, 0.04],
             axes_excited: [true, true],
         }
-    }
-
-    /// The law switch: a mode on the ZMP path becomes a link inside the servo at the same
-    /// axis from the same frequency, damping and share; a link stepped as a filter is switched;
-    /// a model without a mode stepped as a filter has no such variant.
-    #[test]
-    fn the_trunk_law_variant_moves_every_mode_inside_the_servo() {
-        let base = paper_with_limits(1.0, 1.2);
-        assert!(trunk_in_servo(&base).is_none());
-        let mut s = base.clone();
-        add_effect(&mut s, "structural_mode", &[AXES[0]], &[12.0, 0.06, 0.3]);
-        add_effect(
-            &mut s,
-            "flexible_trunk",
-            &[AXES[1]],
-            &[27.0, 0.05, 0.2, 0.2, 0.0],
-        );
-        let v = trunk_in_servo(&s).expect("a variant");
-        assert!(!v.has("structural_mode"));
-        for (b, wn, zeta, share) in [(AXES[0], 12.0, 0.06, 0.3), (AXES[1], 27.0, 0.05, 0.2)] {
-            let val = |p| v.value("flexible_trunk", b, p).unwrap();
-            assert_eq!(
-                [val("omega_n"), val("zeta"), val("share"), val("in_servo")],
-                [wn, zeta, share, 1.0]
-            );
-        }
-        assert!(trunk_in_servo(&v).is_none(), "already inside the servo");
-        assert_eq!(
-            v.value("acceleration_saturation", AXES[1], "limit"),
-            Some(1.2)
-        );
-    }
-
-    /// The law's starts: the variant itself first, then typical links (damping 0.08, drive
-    /// 0.3) at the variant's frequencies and at the top three mode starts, every one inside
-    /// the servo with the rest of the model untouched.
-    #[test]
-    fn the_trunk_law_starts_undo_a_filter_fit_at_its_bounds() {
-        let mut s = paper_with_limits(1.0, 1.2);
-        add_effect(&mut s, "structural_mode", &[AXES[0]], &[31.0, 0.005, 0.25]);
-        add_effect(&mut s, "structural_mode", &[AXES[1]], &[19.0, 0.005, 0.09]);
-        let alt = trunk_in_servo(&s).expect("a variant");
-        let r = range();
-        let starts = trunk_law_starts(&alt, &r);
-        assert_eq!(starts.len(), 5);
-        assert_eq!(starts[0].to_toml(), alt.to_toml());
-        let n = TRUNK_STARTS;
-        let tops: Vec<f64> = (n - 3..n).map(|k| mode_start(&r, k, n)).collect();
-        assert!(tops.windows(2).all(|w| w[1] > w[0]) && tops[2] > r.omega_max);
-        for (k, st) in starts.iter().enumerate().skip(1) {
-            for (b, wn, share) in [(AXES[0], 31.0, 0.25), (AXES[1], 19.0, 0.09)] {
-                let val = |p| st.value("flexible_trunk", b, p).unwrap();
-                let (w, sh) = if k == 1 {
-                    (wn, share)
-                } else {
-                    (tops[k - 2], 0.4)
-                };
-                assert_eq!(
-                    [
-                        val("omega_n"),
-                        val("zeta"),
-                        val("share"),
-                        val("drive"),
-                        val("in_servo")
-                    ],
-                    [w, 0.08, sh, 0.3, 1.0],
-                    "start {k}"
-                );
-            }
-            assert_eq!(
-                st.value("acceleration_saturation", AXES[1], "limit"),
-                Some(1.2)
-            );
-        }
-    }
-
-    /// A servo drives one link: where a backlash sits inside it, a mode stays a filter (the
-    /// variant would not build), on the other axis it moves in; every variant builds.
-    #[test]
-    fn the_trunk_law_variant_leaves_a_mode_beside_a_play_inside_the_servo() {
-        let mut s = paper_with_limits(1.0, 1.2);
-        add_effect(&mut s, "backlash", &[AXES[0]], &[0.001, 1.0]);
-        add_effect(&mut s, "structural_mode", &AXES, &[12.0, 0.06, 0.3]);
-        let v = trunk_in_servo(&s).expect("the y mode moves");
-        assert_eq!(v.value("structural_mode", AXES[0], "omega_n"), Some(12.0));
-        assert!(v.get("flexible_trunk", AXES[0]).is_none());
-        assert_eq!(v.value("flexible_trunk", AXES[1], "in_servo"), Some(1.0));
-        assert!(zmp_models::Plant::new(&v, 0.001).is_ok());
-        // With the play on both axes there is nothing to move.
-        add_effect(&mut s, "backlash", &[AXES[1]], &[0.001, 1.0]);
-        assert!(trunk_in_servo(&s).is_none());
     }
 
     /// A refit moves a play's width, and its drive share only inside the servo; the

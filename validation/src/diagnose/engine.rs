@@ -435,7 +435,7 @@ pub fn score_candidate(c: &Candidate, base: &ModelSpec, obs: &[&Observation]) ->
 /// added nothing and never tried the law inside the servo (which it does only for a mode it
 /// added); refitted inside the servo from that fit: 1 234. Only on a model with a force limit
 /// and no friction (whose describing functions inside the servo are several times slower; the
-/// loop's [`trunk_law`](super::iterate) still tries those).
+/// loop's `trunk_law` in `iterate.rs` still tries those).
 fn mode_in_servo(fitted: Fitted, range: &DataRange, obs: &[&Observation]) -> Fitted {
     if !fitted.spec.has("acceleration_saturation") || heavy_base(&fitted.spec) {
         return fitted;
