@@ -88,9 +88,13 @@ use zmp_validation::par::parallel_map;
 /// friction whose drawn values in the model leave 2.6x the floor at the clamped records);
 /// from 1080000 (run once on the code of 6f92688, the friction's `tanh` from one `exp` and
 /// the linked servo's eigenvalue sub-steps in: singles 19/21, saturation and coupling 4/6,
-/// pairs 11/12, triples 2/3, clean 10/10, outside 5/8, closed 43/52, false effect 6/52; not
-/// examined).
-const HELD_OUT_FIRST_SEED: u64 = 1_090_000;
+/// pairs 11/12, triples 2/3, clean 10/10, outside 5/8, closed 43/52, false effect 6/52; then
+/// examined: 1080004, a lone mode the filter law cannot fit where the force limit clips, left
+/// at 11.45x with nothing found, which led to the mode candidate fitted inside the servo);
+/// from 1090000 (run once on the code of f42682d, that candidate in: singles 19/21, saturation
+/// and coupling 5/6, pairs 10/12, triples 1/3, clean 10/10, outside 7/8, closed 44/52, false
+/// effect 9/52; not examined).
+const HELD_OUT_FIRST_SEED: u64 = 1_100_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
