@@ -104,7 +104,8 @@ fn guid_follows_the_model_content_and_overwrite_needs_force() {
     assert_eq!(start(&md, "pendulum.a11"), Some(0.83));
     assert_eq!(start(&paper, "pendulum.a11"), Some(0.8293));
     // A binary-compatible but different model file in resources/ is refused at instantiation
-    // (tests/robustness.rs checks the message); here: the GUIDs of all flavours differ.
+    // (tests/robustness/instantiate.rs checks the message); here: the GUIDs of all flavours
+    // differ.
     let mut all: Vec<String> = Vec::new();
     for k in Kind::ALL {
         for f in [FmiVersion::V2, FmiVersion::V3] {
