@@ -2,7 +2,8 @@
 //! [`crate::effects::servo_link`]): exact while the servo effects add a constant force,
 //! the creep where friction holds the joint, RK4 where they switch or clamp.
 
-use super::{offset, Servo, ServoState};
+use super::step::offset;
+use super::{Servo, ServoState};
 use crate::effect::Effect;
 
 impl Servo {
