@@ -190,8 +190,11 @@ pub struct SteadyComponents {
     /// Residual power beside the excitation and near zero frequency over the residual
     /// variance, per output: this record's own colour estimate.
     pub colour_raw: [(f64, f64); 2],
-    /// Middle frequency of the near-zero bins, rad/s.
-    pub zero_band_omega: f64,
+    /// The frequencies at which the fitted trend sees the noise, rad/s: the
+    /// [`TREND_NODES`](record_analysis::TREND_NODES) equal-weight quadrature nodes of the
+    /// trend column's spectral window over this window's length (the trend's colour factor
+    /// is the pooled colour averaged over them).
+    pub trend_omegas: [f64; record_analysis::TREND_NODES.len()],
     /// Every bin of the colour estimate, per output: `(frequency rad/s, power over the
     /// residual variance)`, pooled over the campaign by frequency.
     pub colour_bins: [Vec<(f64, f64)>; 2],

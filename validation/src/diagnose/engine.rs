@@ -36,8 +36,9 @@ pub const EXPLAINED_RATIO: f64 = 1.5;
 /// over the records' normalisation, so an effect that moves a few quiet records by tens of
 /// standard errors (a Coulomb friction of a few per cent of the force limit: 2.4 % of the
 /// response, 105 standard errors at most) can sit at 1.2x the noise floor while its
-/// chi-square is 7 per component. Clean saturating robots of the independent simulator come
-/// out at 1.15-1.73 (coloured noise the record's variance only estimates), and robots with
+/// chi-square is 7 per component. Clean saturating robots of the independent simulator came
+/// out at 1.15-1.73 (measured while the trend's standard error was still 2-3 times too small
+/// under slow coloured noise, see `identify::record_analysis::TREND_NODES`), and robots with
 /// backlash at 3.2-4.4 once the loop has found it (that simulator's play sits in a compliant,
 /// dragged transmission the diagnosis's play on the command lacks): at 3 the loop went on to
 /// add a mode to three of those development draws, so 5.

@@ -171,10 +171,7 @@ pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> Rec
         trend: [hf.trend[1], hf.trend[2]],
         residual_var: [hf.noise_var[1], hf.noise_var[2]],
         input_residual_var: hf.noise_var[0],
-        zero_band_omega: {
-            let (_, zero) = noise::bin_frequencies(st.len, dt, w, k_max);
-            zero.iter().sum::<f64>() / zero.len().max(1) as f64
-        },
+        trend_omegas: trend_omegas(st.len as f64 * dt),
         colour_raw: [
             (ratio(1, local[0].near_omega), ratio(1, local[0].near_zero)),
             (ratio(2, local[1].near_omega), ratio(2, local[1].near_zero)),
@@ -251,6 +248,25 @@ pub fn analyse_folder(
     Ok(fits)
 }
 
+/// Where the fitted trend sees the noise, as `x = omega T / 2` over a window of length `T`:
+/// the equal-weight quadrature nodes (the midpoints of the eight octiles) of the trend
+/// column's spectral window `|f(x)|^2`, `f(x) = (sin x - x cos x) / x^2` (the Fourier
+/// transform of the centred ramp; its integral is `pi/6`). The trend's variance under a
+/// noise of spectrum `S` is its white-noise variance times the `|f|^2`-weighted mean of
+/// `S` over the white level, so the mean of the pooled colour at these nodes. Most of the
+/// weight lies below one Fourier bin of the window (`x < pi`), where no bin of the record
+/// itself can be read (its trend and DC take them): the pool reads it from the bins of the
+/// campaign's longer records. The colour near the bins two to ten resolutions up, which a
+/// first-order noise of 1 s (a force sensor's slow creep) already puts 10-30 times lower,
+/// left the trend's standard error 2-3 times too small on short records: a clean robot's
+/// trends were then "significant" and its cells failed at 3-5 times their floor.
+pub const TREND_NODES: [f64; 8] = [0.9985, 1.517, 1.8915, 2.2375, 2.605, 3.0785, 5.588, 15.485];
+
+/// [`TREND_NODES`] as frequencies (rad/s) for a window of `window_s` seconds.
+pub fn trend_omegas(window_s: f64) -> [f64; TREND_NODES.len()] {
+    TREND_NODES.map(|x| 2.0 * x / window_s.max(1e-9))
+}
+
 /// Pools the records' colour estimates over the campaign, per output and by frequency (see
 /// `noise`), and updates each record's colour factors and the standard errors of its `g`:
 /// with white noise the factors are about 1 and nothing changes; with coloured noise the
@@ -282,15 +298,19 @@ pub fn pool_colour(records: &mut [RecordFit], relative_floor: f64) {
             .collect();
         let q_zero: Vec<f64> = records
             .iter()
-            .map(|r| {
+            .flat_map(|r| {
                 r.components
                     .as_ref()
-                    .map_or(f64::NAN, |c| c.zero_band_omega)
+                    .map_or([f64::NAN; TREND_NODES.len()], |c| c.trend_omegas)
             })
             .collect();
         let q_third: Vec<f64> = q_near.iter().map(|w| 3.0 * w).collect();
         let f_near = pool_ratios(&samples, &q_near);
-        let f_zero = pool_ratios(&samples, &q_zero);
+        // The trend's factor: the pooled colour averaged over its quadrature nodes.
+        let f_zero: Vec<f64> = pool_ratios(&samples, &q_zero)
+            .chunks(TREND_NODES.len())
+            .map(|f| f.iter().sum::<f64>() / f.len() as f64)
+            .collect();
         let f_third = pool_ratios(&samples, &q_third);
         for (k, r) in records.iter_mut().enumerate() {
             let Some(c) = r.components.as_mut() else {
@@ -304,6 +324,48 @@ pub fn pool_colour(records: &mut [RecordFit], relative_floor: f64) {
                 let var = (c.y1_var(i) + r.g[i].norm_sqr() * u_var) / amp2;
                 r.sigma[i] = (var + (relative_floor * r.g[i].norm()).powi(2)).sqrt();
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::TREND_NODES;
+
+    /// The nodes are the octile midpoints of `|f(x)|^2`: its integral up to node `k` is
+    /// `(2k + 1)/16` of `pi/6`.
+    #[test]
+    fn trend_nodes_split_the_trend_windows_weight_into_equal_parts() {
+        let f2 = |x: f64| {
+            let f = (x.sin() - x * x.cos()) / (x * x);
+            f * f
+        };
+        // Simpson on [0, node] (f ~ x/3 near 0, so start just above it).
+        let integral = |b: f64| {
+            let n = 200_000;
+            let h = b / n as f64;
+            let mut s = 0.0;
+            for i in 0..=n {
+                let x = (i as f64 * h).max(1e-9);
+                let w = if i == 0 || i == n {
+                    1.0
+                } else if i % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
+                s += w * f2(x);
+            }
+            s * h / 3.0
+        };
+        let total = std::f64::consts::PI / 6.0;
+        for (k, &x) in TREND_NODES.iter().enumerate() {
+            let share = integral(x) / total;
+            let want = (2 * k + 1) as f64 / 16.0;
+            assert!(
+                (share - want).abs() < 2e-3,
+                "node {k} at {x}: share {share}, want {want}"
+            );
         }
     }
 }
