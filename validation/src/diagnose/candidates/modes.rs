@@ -118,11 +118,15 @@ fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
                 spec,
                 "flexible_trunk",
                 &bindings,
-                &[wm, zeta, share, 0.3, law],
+                &[wm, zeta, share, DRIVE_START, law],
             );
             out.push((
                 s,
-                trunk_frees(std::slice::from_ref(&bindings), wm, zeta, share, r),
+                trunk_frees(
+                    std::slice::from_ref(&bindings),
+                    [wm, zeta, share, DRIVE_START],
+                    r,
+                ),
             ));
         }
     }
@@ -131,9 +135,14 @@ fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
         for k in 0..n {
             let wm = mode_start(r, k, n);
             let (zeta, share) = (0.08, 0.4);
-            let s = with(spec, "flexible_trunk", &AXES, &[wm, zeta, share, 0.3]);
+            let s = with(
+                spec,
+                "flexible_trunk",
+                &AXES,
+                &[wm, zeta, share, DRIVE_START],
+            );
             let each: Vec<Vec<Binding>> = AXES.iter().map(|b| vec![*b]).collect();
-            out.push((s, trunk_frees(&each, wm, zeta, share, r)));
+            out.push((s, trunk_frees(&each, [wm, zeta, share, DRIVE_START], r)));
         }
     }
     out
@@ -161,7 +170,7 @@ pub fn trunk_in_servo(spec: &ModelSpec) -> Option<ModelSpec> {
                     v("omega_n", 10.0),
                     v("zeta", 0.1),
                     v("share", 0.5).clamp(0.05, 0.95),
-                    0.3,
+                    DRIVE_START,
                     1.0,
                 ];
                 add_effect(&mut out, "flexible_trunk", &[e.binding], &values);
@@ -205,7 +214,7 @@ pub fn trunk_law_starts(alt: &ModelSpec, r: &DataRange) -> Vec<ModelSpec> {
                 s.set_value("flexible_trunk", b, "share", 0.4);
             }
             s.set_value("flexible_trunk", b, "zeta", 0.08);
-            s.set_value("flexible_trunk", b, "drive", 0.3);
+            s.set_value("flexible_trunk", b, "drive", DRIVE_START);
         }
         s
     };
@@ -233,14 +242,13 @@ pub fn plausible(frees: &[Free]) -> bool {
     })
 }
 
-/// The free parameters of a flexible trunk at each binding group.
-fn trunk_frees(
-    groups: &[Vec<Binding>],
-    wm: f64,
-    zeta: f64,
-    share: f64,
-    r: &DataRange,
-) -> Vec<Free> {
+/// Where a flexible trunk's drive share (the servo's own mass fraction) starts.
+const DRIVE_START: f64 = 0.3;
+
+/// The free parameters of a flexible trunk at each binding group, from `[omega_n, zeta,
+/// share, drive]`.
+fn trunk_frees(groups: &[Vec<Binding>], start: [f64; 4], r: &DataRange) -> Vec<Free> {
+    let [wm, zeta, share, drive] = start;
     let mut out = Vec::new();
     for b in groups {
         out.push(Free::new(
@@ -271,7 +279,7 @@ fn trunk_frees(
             "flexible_trunk",
             b.clone(),
             "drive",
-            0.3,
+            drive,
             0.0,
             0.8,
         ));
@@ -290,16 +298,8 @@ pub fn trunk_own_frees(spec: &ModelSpec, r: &DataRange) -> Vec<Free> {
         .filter(|e| e.info.kind == "flexible_trunk")
     {
         let v = |p: &str| e.value(p).unwrap_or(0.0);
-        let mut f = trunk_frees(&[vec![e.binding]], v("omega_n"), v("zeta"), v("share"), r);
-        f[3] = Free::new(
-            "flexible_trunk",
-            vec![e.binding],
-            "drive",
-            v("drive"),
-            0.0,
-            0.8,
-        );
-        out.extend(f);
+        let start = ["omega_n", "zeta", "share", "drive"].map(v);
+        out.extend(trunk_frees(&[vec![e.binding]], start, r));
     }
     out
 }
