@@ -198,8 +198,8 @@ pub struct SteadyComponents {
     /// Every bin of the colour estimate, per output: `(frequency rad/s, power over the
     /// residual variance)`, pooled over the campaign by frequency.
     pub colour_bins: [Vec<(f64, f64)>; 2],
-    /// The campaign's pooled colour factors at this record's frequency and near zero
-    /// (1 for white noise).
+    /// The campaign's pooled colour factors, per output: at this record's frequency (its
+    /// first harmonic's) and averaged over `trend_omegas` (its trend's); 1 for white noise.
     pub colour: [(f64, f64); 2],
     /// The same at three times the record's frequency (the third harmonic's noise).
     pub colour3: [f64; 2],
