@@ -26,27 +26,43 @@ use zmp_validation::identify::{identify, IdentifyOptions};
 /// and one with faster noise.
 const SEEDS: [u64; 3] = [43, 50, 47];
 
+/// A clean robot of `seed`, its campaign identified, and its drawn sensor noise.
+struct Clean {
+    id: zmp_validation::identify::Identification,
+    noise: zmp_indep_sim::Noise,
+    /// Sample interval, s.
+    dt: f64,
+}
+
+fn identified_clean(seed: u64, dir: &std::path::Path) -> Clean {
+    let design = Design::default();
+    let scenario: Scenario = "clean".parse().unwrap();
+    let robot = draw_with(
+        seed,
+        &scenario,
+        &design,
+        &DrawOptions {
+            coupling_form: Some(CouplingForm::Pendulum),
+        },
+    );
+    let camp_dir = dir.join(format!("c{seed}"));
+    write_campaign(&robot, &design, &camp_dir, false).unwrap();
+    let camp = read_campaign(&camp_dir).unwrap();
+    let id = identify(&camp, &IdentifyOptions::default()).unwrap();
+    let dt = 1.0 / camp.sample_rate_hz.expect("the simulator states its rate");
+    Clean {
+        id,
+        noise: robot.sensor.noise,
+        dt,
+    }
+}
+
 #[test]
 fn first_harmonic_standard_error_matches_the_simulators_noise() {
-    let design = Design::default();
     let dir = tempfile::tempdir().unwrap();
     for seed in SEEDS {
-        let scenario: Scenario = "clean".parse().unwrap();
-        let robot = draw_with(
-            seed,
-            &scenario,
-            &design,
-            &DrawOptions {
-                coupling_form: Some(CouplingForm::Pendulum),
-            },
-        );
-        let camp_dir = dir.path().join(format!("c{seed}"));
-        write_campaign(&robot, &design, &camp_dir, false).unwrap();
-        let camp = read_campaign(&camp_dir).unwrap();
+        let Clean { id, noise, dt } = identified_clean(seed, dir.path());
         let opts = IdentifyOptions::default();
-        let id = identify(&camp, &opts).unwrap();
-        let noise = robot.sensor.noise;
-        let dt = 1.0 / camp.sample_rate_hz.expect("the simulator states its rate");
         let phi = (-dt / noise.coloured_tau).exp();
         let mut ratios = Vec::new();
         let mut lowest = f64::INFINITY;
@@ -123,25 +139,10 @@ fn ar1_form(w: &[f64], phi: f64) -> f64 {
 /// 0.8-1.25 of the exact value, every record within 0.5-3.
 #[test]
 fn trend_standard_error_matches_the_simulators_noise() {
-    let design = Design::default();
     let dir = tempfile::tempdir().unwrap();
     for seed in SEEDS {
-        let scenario: Scenario = "clean".parse().unwrap();
-        let robot = draw_with(
-            seed,
-            &scenario,
-            &design,
-            &DrawOptions {
-                coupling_form: Some(CouplingForm::Pendulum),
-            },
-        );
-        let camp_dir = dir.path().join(format!("t{seed}"));
-        write_campaign(&robot, &design, &camp_dir, false).unwrap();
-        let camp = read_campaign(&camp_dir).unwrap();
+        let Clean { id, noise, dt } = identified_clean(seed, dir.path());
         let opts = IdentifyOptions::default();
-        let id = identify(&camp, &opts).unwrap();
-        let noise = robot.sensor.noise;
-        let dt = 1.0 / camp.sample_rate_hz.expect("the simulator states its rate");
         let phi = (-dt / noise.coloured_tau).exp();
         let mut ratios = Vec::new();
         for r in id.records.iter().filter(|r| r.excluded.is_none()) {
