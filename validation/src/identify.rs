@@ -191,7 +191,7 @@ pub struct SteadyComponents {
     /// variance, per output: this record's own colour estimate.
     pub colour_raw: [(f64, f64); 2],
     /// The frequencies at which the fitted trend sees the noise, rad/s: the
-    /// [`TREND_NODES`](record_analysis::TREND_NODES) equal-weight quadrature nodes of the
+    /// `record_analysis::TREND_NODES` equal-weight quadrature nodes of the
     /// trend column's spectral window over this window's length (the trend's colour factor
     /// is the pooled colour averaged over them).
     pub trend_omegas: [f64; record_analysis::TREND_NODES.len()],

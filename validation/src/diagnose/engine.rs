@@ -233,7 +233,7 @@ pub fn fit(effect: &str, starts: &[Start], obs: &[&Observation]) -> Option<Fitte
 }
 
 /// [`fit`], except that a servo candidate whose own parameters, fitted alone, remove less
-/// than [`SCREEN_CHI2`] of `base_chi2` (the chi-square of the model it is added to) on the
+/// than `SCREEN_CHI2` of `base_chi2` (the chi-square of the model it is added to) on the
 /// records it is fitted on is dropped before its costly joint fit: what cannot help in-sample
 /// with its own parameters will not pass the held-out test.
 pub fn fit_screened(
@@ -566,7 +566,7 @@ fn tracking_damping(spec: &ModelSpec, b: Binding) -> f64 {
 }
 
 /// Every parameter of `base`'s own structure refitted on `obs`: the core from each low-pass
-/// variant (and passive-damping variant, [`damping_variants`]), then everything jointly from
+/// variant (and passive-damping variant, `damping_variants`), then everything jointly from
 /// the best.
 pub fn refit_all(base: &ModelSpec, obs: &[&Observation]) -> Option<Fitted> {
     let best = damping_variants(base)

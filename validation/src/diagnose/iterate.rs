@@ -182,7 +182,7 @@ fn run_loop_in_budget(
     })
 }
 
-/// The change label of the version [`trunk_law`] writes.
+/// The change label of the version `trunk_law` writes.
 pub const TRUNK_IN_SERVO: &str = "trunk-in-servo";
 
 /// A model whose structural mode, stepped as a filter of the CoM reference (the default law),

@@ -18,8 +18,8 @@
 //! significantly to the other. Once the structure explains the data, the search goes on only
 //! while one effect removes most of what is left ([`dominates`]). Then one swap pass: each
 //! effect but the last is taken out and the others' best replacement for it tried (see
-//! [`swap`]); and backward elimination: an effect that, given the others, no longer passes the
-//! test is dropped (see [`prune`]).
+//! `revise::swap`); and backward elimination: an effect that, given the others, no longer
+//! passes the test is dropped (see `revise::prune`).
 
 use super::candidates::CATALOGUE;
 use super::engine::{addable, score_candidate, score_candidates, Scored};

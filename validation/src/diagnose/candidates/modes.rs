@@ -288,7 +288,7 @@ fn trunk_frees(groups: &[Vec<Binding>], start: [f64; 4], r: &DataRange) -> Vec<F
 }
 
 /// The free parameters of every flexible trunk of `spec`, at their values, within the mode
-/// candidate's bounds ([`trunk_frees`]): a mode candidate's own parameters once its links
+/// candidate's bounds (`trunk_frees`): a mode candidate's own parameters once its links
 /// have been moved inside their servo ([`trunk_in_servo`]).
 pub fn trunk_own_frees(spec: &ModelSpec, r: &DataRange) -> Vec<Free> {
     let mut out = Vec::new();
