@@ -153,7 +153,7 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     let mut current_path = identified.clone();
     for (added, aug) in &r.versions {
         // A version without an added effect is the structure refitted (`refit`) or its
-        // modes moved inside the servo's loop (`trunk-in-servo`).
+        // modes (`trunk-in-servo`) or its play (`play-in-servo`) moved inside the servo's loop.
         let label = if added.is_empty() {
             aug.change.clone()
         } else {
