@@ -81,21 +81,40 @@ fn a_passive_damping_in_the_model_is_refitted_to_the_load_drag_and_closes_the_ga
         let plain_ratio = plain.final_error / plain.noise_floor;
         let damped = loop_from(seed, SCENARIO, Some(start.clone()));
         let ratio = damped.final_error / damped.noise_floor;
+        // The damping stands in for the drag where the play is on the command: the version
+        // that adds the play. The loop then moves the play inside the servo
+        // (`iterate::play_law`), whose law carries a drag of its own.
+        let with_play = &damped
+            .versions
+            .iter()
+            .find(|(added, _)| added.iter().any(|e| e == "backlash"))
+            .expect("a version that adds the play")
+            .1
+            .spec;
         let fitted = [Axis::X, Axis::Y].map(|a| {
-            damped
-                .final_model
+            with_play
                 .value(
                     "acceleration_saturation",
                     Binding::Axis(a),
                     "passive_damping",
                 )
-                .expect("the final model keeps the saturation")
+                .expect("the model keeps the saturation")
         });
+        let law = if damped
+            .final_model
+            .value("backlash", Binding::Axis(Axis::X), "in_servo")
+            == Some(1.0)
+        {
+            "; the play then inside the servo"
+        } else {
+            ""
+        };
         let line = format!(
             "- {range} seed {seed} ({SCENARIO}): from the seed's structure the loop adds {} \
              and ends at {plain_ratio:.2}x the noise floor ({}); from the start model it adds \
-             {} and ends at {ratio:.2}x ({}), the passive damping refitted to x {:.1}/s and \
-             y {:.1}/s against the drawn robot's load drag of {:.1}/s and {:.1}/s.\n",
+             {} and ends at {ratio:.2}x ({}{law}), the passive damping refitted with the play \
+             on the command to x {:.1}/s and y {:.1}/s against the drawn robot's load drag of \
+             {:.1}/s and {:.1}/s.\n",
             names(&plain.found),
             words(plain.explained),
             names(&damped.found),
