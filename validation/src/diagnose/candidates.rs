@@ -11,7 +11,7 @@ mod play;
 
 use modes::structural_mode;
 pub use modes::{mode_free_axes, plausible, trunk_in_servo, trunk_law_starts, trunk_own_frees};
-pub use play::play_in_servo_starts;
+pub use play::{play_in_servo_starts, plays_on_command};
 
 /// One scalar the fit moves; it sets `param` of `kind` at every binding listed.
 #[derive(Debug, Clone)]

@@ -5,7 +5,8 @@
 
 use super::augment::{version_from_diagnosis, Augmented};
 use super::candidates::{
-    plausible, play_in_servo_starts, trunk_in_servo, trunk_law_starts, DataRange, CATALOGUE,
+    plausible, play_in_servo_starts, plays_on_command, trunk_in_servo, trunk_law_starts, DataRange,
+    CATALOGUE,
 };
 use super::engine::{self, evaluate};
 use super::measure::{aggregate, chi2_total, components, predict, score, Prediction};
@@ -153,7 +154,7 @@ fn run_loop_in_budget(
         // Effects of the path after a play, dropped when the play is tried inside its servo.
         let mut dropped: Vec<String> = Vec::new();
         let mut steps = steps.into_iter();
-        while let Some((added, fitted)) = steps.by_ref().next() {
+        while let Some((added, fitted)) = steps.next() {
             if found.len() + added.len() > MAX_EFFECTS {
                 break;
             }
@@ -168,7 +169,7 @@ fn run_loop_in_budget(
             // tried inside its servo first and the next round searches on top of the better
             // law (see `play_law`; development seed 28, a delay beside play: the path went on
             // to a mode that took up the difference between the laws).
-            if play && !play_in_servo_starts(&current).is_empty() {
+            if play && !plays_on_command(&current).is_empty() {
                 added_play = true;
                 dropped = steps.by_ref().flat_map(|(a, _)| a).collect();
                 break;
@@ -254,7 +255,7 @@ fn trunk_law(
     // the links' from every start.
     let fitted =
         engine::refit_all_from(&starts, &["flexible_trunk", "acceleration_saturation"], obs);
-    adopt_law(current, &now, fitted, obs, TRUNK_IN_SERVO, opts)
+    adopt_law(current, &now, fitted.as_ref(), obs, TRUNK_IN_SERVO, opts)
 }
 
 /// The change label of the version `play_law` writes.
@@ -284,8 +285,7 @@ fn play_law(
     progress("trying the play inside its servo");
     let now = predict(current, obs)?;
     let fitted = engine::refit_all_from(&starts, &["backlash", "acceleration_saturation"], obs);
-    let kept = fitted.clone();
-    Ok(adopt_law(current, &now, fitted, obs, PLAY_IN_SERVO, opts)?.zip(kept))
+    Ok(adopt_law(current, &now, fitted.as_ref(), obs, PLAY_IN_SERVO, opts)?.zip(fitted))
 }
 
 /// The effects the round's path named after a play (`dropped`, in order: searched on top of
@@ -340,7 +340,7 @@ fn readd(
 fn adopt_law(
     current: &ModelSpec,
     now: &[Prediction],
-    fitted: Option<engine::Fitted>,
+    fitted: Option<&engine::Fitted>,
     obs: &[&Observation],
     label: &str,
     opts: &DiagnoseOptions,
@@ -357,7 +357,7 @@ fn adopt_law(
         return Ok(None);
     }
     Ok(Some(version_from_diagnosis(
-        obs, current, &fitted, label, opts,
+        obs, current, fitted, label, opts,
     )?))
 }
 

@@ -20,14 +20,7 @@ const LIMIT_FACTORS: [f64; 2] = [1.0, 2.0];
 /// at its defaults. Empty when `spec` has no such play. An axis whose servo already drives a
 /// link (a flexible trunk inside it) keeps its play on the command: a servo drives one link.
 pub fn play_in_servo_starts(spec: &ModelSpec) -> Vec<ModelSpec> {
-    let plays: Vec<Binding> = spec
-        .effects
-        .iter()
-        .filter(|e| e.info.kind == "backlash")
-        .filter(|e| e.value("in_servo") != Some(1.0) && e.value("width").unwrap_or(0.0) > 0.0)
-        .filter(|e| spec.value("flexible_trunk", e.binding, "in_servo") != Some(1.0))
-        .map(|e| e.binding)
-        .collect();
+    let plays = plays_on_command(spec);
     if plays.is_empty() {
         return Vec::new();
     }
@@ -36,10 +29,9 @@ pub fn play_in_servo_starts(spec: &ModelSpec) -> Vec<ModelSpec> {
         for factor in LIMIT_FACTORS {
             let mut s = spec.clone();
             for &b in &plays {
-                let Some(e) = s.get("backlash", b).cloned() else {
+                let Some(mut e) = s.get("backlash", b).cloned() else {
                     continue;
                 };
-                let mut e = e;
                 // Values may leave out trailing optional parameters: written out in full.
                 let n = e.info.params.len();
                 for k in e.values.len()..n {
@@ -56,6 +48,18 @@ pub fn play_in_servo_starts(spec: &ModelSpec) -> Vec<ModelSpec> {
         }
     }
     out
+}
+
+/// The axes of `spec` whose play (of positive width) is on the command and could move inside
+/// the servo (see [`play_in_servo_starts`]).
+pub fn plays_on_command(spec: &ModelSpec) -> Vec<Binding> {
+    spec.effects
+        .iter()
+        .filter(|e| e.info.kind == "backlash")
+        .filter(|e| e.value("in_servo") != Some(1.0) && e.value("width").unwrap_or(0.0) > 0.0)
+        .filter(|e| spec.value("flexible_trunk", e.binding, "in_servo") != Some(1.0))
+        .map(|e| e.binding)
+        .collect()
 }
 
 #[cfg(test)]
@@ -86,8 +90,9 @@ mod tests {
         }
         assert_eq!(seen, vec![(0.3, 1.0), (0.3, 2.0), (0.5, 1.0), (0.5, 2.0)]);
         assert!(
-            play_in_servo_starts(&starts[0]).is_empty(),
+            play_in_servo_starts(&starts[0]).is_empty() && plays_on_command(&starts[0]).is_empty(),
             "already inside"
         );
+        assert_eq!(plays_on_command(&s), vec![AXES[0]]);
     }
 }
