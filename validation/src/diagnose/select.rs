@@ -16,7 +16,8 @@
 //! passes, the best few are paired (two effects acting together, each of which alone is
 //! masked by the other) and a pair is added when it passes and each of its effects adds
 //! significantly to the other. Once the structure explains the data, the search goes on only
-//! while one effect removes most of what is left ([`dominates`]). Then one swap pass: each
+//! while one effect removes most of what is left ([`dominates`]; among several that do, the
+//! same choice, a simpler effect winning a near tie). Then one swap pass: each
 //! effect but the last is taken out and the others' best replacement for it tried (see
 //! `revise::swap`); and backward elimination: an effect that, given the others, no longer
 //! passes the test is dropped (see `revise::prune`).
@@ -166,10 +167,15 @@ pub fn complexity(effect: &str) -> usize {
 /// best's, or within a twentieth of it when both are far from the noise (then the models'
 /// own imperfections, not the noise, decide such differences).
 pub fn choose<'a>(parent: &Scored, children: &'a [Scored]) -> Option<&'a Scored> {
-    let passing: Vec<&Scored> = children
-        .iter()
-        .filter(|c| gain(parent, c).significant())
-        .collect();
+    choose_among(parent, children.iter())
+}
+
+/// [`choose`] over any set of children.
+fn choose_among<'a>(
+    parent: &Scored,
+    children: impl Iterator<Item = &'a Scored>,
+) -> Option<&'a Scored> {
+    let passing: Vec<&Scored> = children.filter(|c| gain(parent, c).significant()).collect();
     let mut best = *passing.iter().min_by(|a, b| a.chi2.total_cmp(&b.chi2))?;
     // Far from the noise the chi-square is decided by the few records with the least noise;
     // a candidate that leaves half the error (the scale-free measure, every record alike) of
@@ -296,7 +302,11 @@ pub fn search(
                     100.0 * DOMINANT_FRACTION
                 ));
             }
-            match best.filter(|b| dominates(&current, b)) {
+            // Among those that do, the same choice as below (a simpler effect wins a near
+            // tie): development seed 36, a delay beside play, had a mode at 1725 and the
+            // delay at 1755 past the play, and the mode was taken.
+            let dominant = children.iter().filter(|c| dominates(&current, c));
+            match choose_among(&current, dominant) {
                 Some(b) => Some(b),
                 None => break,
             }
@@ -478,5 +488,37 @@ mod tests {
             &above,
             &scored("backlash", vec![13.2 - 0.8 * 7.2; 40])
         ));
+    }
+
+    #[test]
+    fn past_explained_a_simpler_effect_wins_a_near_tie_among_those_that_dominate() {
+        // Development seed 36's shape: past the play, a mode takes 61 % of the excess and a
+        // delay 60 %, a near tie (within a twentieth of the best's chi-square).
+        let parent = scored("backlash", vec![24.0; 40]);
+        let mode = scored("structural_mode", vec![24.0 - 0.61 * 18.0; 40]);
+        let delay = scored("time_delay", vec![24.0 - 0.60 * 18.0; 40]);
+        let children = [mode.clone(), delay.clone()];
+        let dominant = || children.iter().filter(|c| dominates(&parent, c));
+        assert_eq!(dominant().count(), 2);
+        assert_eq!(
+            choose_among(&parent, dominant()).unwrap().effect,
+            "time_delay"
+        );
+        // Not a near tie (the mode leaves a third less): the mode.
+        let far = scored("structural_mode", vec![24.0 - 0.95 * 18.0; 40]);
+        let children = [far, delay];
+        let dominant = || children.iter().filter(|c| dominates(&parent, c));
+        assert_eq!(
+            choose_among(&parent, dominant()).unwrap().effect,
+            "structural_mode"
+        );
+        // A simpler effect that does not dominate is not taken in the mode's place.
+        let weak = scored("time_delay", vec![24.0 - 0.45 * 18.0; 40]);
+        let children = [mode, weak];
+        let dominant = || children.iter().filter(|c| dominates(&parent, c));
+        assert_eq!(
+            choose_among(&parent, dominant()).unwrap().effect,
+            "structural_mode"
+        );
     }
 }
