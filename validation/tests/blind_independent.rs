@@ -98,8 +98,11 @@ use zmp_validation::par::parallel_map;
 /// triples 3/3, clean 10/10, outside 4/8, closed 50/52, false effect 7/52; not examined);
 /// from 1110000 (run once on the code of b70c71c, the loop moving a play it adds inside its
 /// servo: singles 18/21, saturation and coupling 6/6, pairs 9/12, triples 2/3, clean 10/10,
-/// outside 4/8, closed 49/52, false effect 4/52; not examined).
-const HELD_OUT_FIRST_SEED: u64 = 1_120_000;
+/// outside 4/8, closed 49/52, false effect 4/52; not examined); from 1120000 (run once on the
+/// code of f864e4f, a simpler effect winning a near tie past "explained" too: singles 20/21,
+/// saturation and coupling 6/6, pairs 6/12, triples 3/3, clean 10/10, outside 3/8, closed
+/// 47/52, false effect 6/52; not examined).
+const HELD_OUT_FIRST_SEED: u64 = 1_130_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
