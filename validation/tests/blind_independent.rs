@@ -101,8 +101,12 @@ use zmp_validation::par::parallel_map;
 /// outside 4/8, closed 49/52, false effect 4/52; not examined); from 1120000 (run once on the
 /// code of f864e4f, a simpler effect winning a near tie past "explained" too: singles 20/21,
 /// saturation and coupling 6/6, pairs 6/12, triples 3/3, clean 10/10, outside 3/8, closed
-/// 47/52, false effect 6/52; not examined).
-const HELD_OUT_FIRST_SEED: u64 = 1_130_000;
+/// 47/52, false effect 6/52; then examined: 1120002, a lone friction whose identified force
+/// limit was a quarter of the drawn one, which led to the limit search starting from a grid);
+/// from 1130000 (run once on the code of 2eba340, that grid in: singles 19/21, saturation and
+/// coupling 6/6, pairs 9/12, triples 1/3, clean 10/10, outside 3/8, closed 50/52, false effect
+/// 8/52; not examined).
+const HELD_OUT_FIRST_SEED: u64 = 1_140_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
