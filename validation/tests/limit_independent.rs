@@ -14,8 +14,6 @@
 #[path = "support/indep_loop.rs"]
 mod indep_loop;
 
-use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Scenario};
-use zmp_validation::campaign::read_campaign;
 use zmp_validation::identify::{identify, IdentifyOptions};
 
 const SEED: u64 = 1_120_002;
@@ -23,30 +21,15 @@ const SCENARIO: &str = "single:coulomb_friction";
 
 #[test]
 fn the_limit_search_finds_the_deep_valley() {
-    let design = Design::default();
-    let scenario: Scenario = SCENARIO.parse().unwrap();
-    let robot = draw_with(
-        SEED,
-        &scenario,
-        &design,
-        &DrawOptions {
-            coupling_form: Some(CouplingForm::Pendulum),
-        },
-    );
-    let drawn = robot.axes[0].servo.accel_limit;
-    assert_eq!(
-        drawn, robot.axes[1].servo.accel_limit,
-        "one limit per robot"
-    );
-    let dir = tempfile::tempdir().unwrap();
-    let camp_dir = dir.path().join("campaign");
-    write_campaign(&robot, &design, &camp_dir, true).unwrap();
-    let camp = read_campaign(&camp_dir).unwrap();
-    let ident = identify(&camp, &IdentifyOptions::default()).unwrap();
+    let drawn = indep_loop::drawn_campaign(SEED, SCENARIO);
+    let limit_of = |k: usize| drawn.robot.axes[k].servo.accel_limit;
+    let drawn_limit = limit_of(0);
+    assert_eq!(drawn_limit, limit_of(1), "one limit per robot");
+    let ident = identify(&drawn.campaign, &IdentifyOptions::default()).unwrap();
     let limit = ident.saturation.limit.expect("a limit estimated");
     assert!(
-        (limit / drawn - 1.0).abs() < 0.03,
-        "limit {limit:.4} m/s2 against the drawn {drawn:.4}"
+        (limit / drawn_limit - 1.0).abs() < 0.03,
+        "limit {limit:.4} m/s2 against the drawn {drawn_limit:.4}"
     );
 }
 

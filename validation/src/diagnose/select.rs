@@ -497,28 +497,18 @@ mod tests {
         let parent = scored("backlash", vec![24.0; 40]);
         let mode = scored("structural_mode", vec![24.0 - 0.61 * 18.0; 40]);
         let delay = scored("time_delay", vec![24.0 - 0.60 * 18.0; 40]);
-        let children = [mode.clone(), delay.clone()];
-        let dominant = || children.iter().filter(|c| dominates(&parent, c));
-        assert_eq!(dominant().count(), 2);
-        assert_eq!(
-            choose_among(&parent, dominant()).unwrap().effect,
-            "time_delay"
-        );
+        // The choice among the children that dominate the parent.
+        let pick = |children: &[Scored]| {
+            let dominant = children.iter().filter(|c| dominates(&parent, c));
+            choose_among(&parent, dominant).map(|c| c.effect.clone())
+        };
+        assert!([&mode, &delay].iter().all(|c| dominates(&parent, c)));
+        assert_eq!(pick(&[mode.clone(), delay.clone()]).unwrap(), "time_delay");
         // Not a near tie (the mode leaves a third less): the mode.
         let far = scored("structural_mode", vec![24.0 - 0.95 * 18.0; 40]);
-        let children = [far, delay];
-        let dominant = || children.iter().filter(|c| dominates(&parent, c));
-        assert_eq!(
-            choose_among(&parent, dominant()).unwrap().effect,
-            "structural_mode"
-        );
+        assert_eq!(pick(&[far, delay]).unwrap(), "structural_mode");
         // A simpler effect that does not dominate is not taken in the mode's place.
         let weak = scored("time_delay", vec![24.0 - 0.45 * 18.0; 40]);
-        let children = [mode, weak];
-        let dominant = || children.iter().filter(|c| dominates(&parent, c));
-        assert_eq!(
-            choose_among(&parent, dominant()).unwrap().effect,
-            "structural_mode"
-        );
+        assert_eq!(pick(&[mode, weak]).unwrap(), "structural_mode");
     }
 }

@@ -1,8 +1,10 @@
 //! The user's loop on one draw of the independent simulator (`zmp-indep-sim`, which shares
 //! no physics code with `zmp-models`), as a test sees it.
 
-use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Scenario};
-use zmp_validation::campaign::read_campaign;
+use zmp_indep_sim::{
+    draw_with, write_campaign, CouplingForm, Design, DrawOptions, Robot, Scenario,
+};
+use zmp_validation::campaign::{read_campaign, Campaign};
 use zmp_validation::diagnose::iterate::{run_loop, LoopResult};
 use zmp_validation::diagnose::DiagnoseOptions;
 use zmp_validation::identify::IdentifyOptions;
@@ -27,6 +29,28 @@ pub fn loop_with(
     start: Option<zmp_models::ModelSpec>,
     iopts: &IdentifyOptions,
 ) -> LoopResult {
+    let drawn = drawn_campaign(seed, scenario);
+    let (camp, camp_dir) = (drawn.campaign, drawn.dir.path().join("campaign"));
+    let opts = DiagnoseOptions {
+        campaign_path: camp_dir.display().to_string(),
+        model_path: "identified.toml".into(),
+        threads: 2,
+        ..DiagnoseOptions::default()
+    };
+    run_loop(&camp, start, iopts, &opts, &|_| {}).unwrap()
+}
+
+/// A draw of the independent simulator written as a campaign and read back.
+#[allow(dead_code)]
+pub struct Drawn {
+    pub robot: Robot,
+    pub campaign: Campaign,
+    /// Holds the campaign's files (`campaign/` inside it) while it lives.
+    pub dir: tempfile::TempDir,
+}
+
+/// Draw `seed` of `scenario` (coupling in the pendulum's form, as the blind suite draws it).
+pub fn drawn_campaign(seed: u64, scenario: &str) -> Drawn {
     let design = Design::default();
     let dir = tempfile::tempdir().unwrap();
     let scenario: Scenario = scenario.parse().unwrap();
@@ -40,12 +64,10 @@ pub fn loop_with(
     );
     let camp_dir = dir.path().join("campaign");
     write_campaign(&robot, &design, &camp_dir, true).unwrap();
-    let camp = read_campaign(&camp_dir).unwrap();
-    let opts = DiagnoseOptions {
-        campaign_path: camp_dir.display().to_string(),
-        model_path: "identified.toml".into(),
-        threads: 2,
-        ..DiagnoseOptions::default()
-    };
-    run_loop(&camp, start, iopts, &opts, &|_| {}).unwrap()
+    let campaign = read_campaign(&camp_dir).unwrap();
+    Drawn {
+        robot,
+        campaign,
+        dir,
+    }
 }
