@@ -153,8 +153,10 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     let mut current_path = identified.clone();
     for (added, aug) in &r.versions {
         // A version without an added effect is the structure refitted (`refit`) or its
-        // modes (`trunk-in-servo`) or its play (`play-in-servo`) moved inside the servo's loop.
-        let label = if added.is_empty() {
+        // modes (`trunk-in-servo`) or its play (`play-in-servo`) moved inside the servo's loop;
+        // one that puts an effect in another's place is named by its change
+        // (`time_delay-for-structural_mode`).
+        let label = if added.is_empty() || !aug.change.starts_with('+') {
             aug.change.clone()
         } else {
             added.join("+")

@@ -143,12 +143,20 @@ pub fn gain(parent: &Scored, child: &Scored) -> Gain {
 /// held-out chi-square over the campaign, and the parent is not at the noise already (its
 /// held-out chi-square at least [`NOISE_CHI2_PER_COMPONENT`] per component).
 pub fn dominates(parent: &Scored, child: &Scored) -> bool {
+    beyond_noise(parent) && removes_most(parent, child)
+}
+
+/// Whether `child` passes the test of every addition ([`Gain::significant`]) against `parent`
+/// and removes at least [`DOMINANT_FRACTION`] of its excess held-out chi-square: [`dominates`]
+/// without the noise gate, for an effect the search already named on evidence of its own
+/// (see `iterate::readd`).
+pub fn removes_most(parent: &Scored, child: &Scored) -> bool {
     let g = gain(parent, child);
-    beyond_noise(parent) && g.significant() && g.total_fraction >= DOMINANT_FRACTION
+    g.significant() && g.total_fraction >= DOMINANT_FRACTION
 }
 
 /// Whether `s`'s held-out chi-square is at least [`NOISE_CHI2_PER_COMPONENT`] per component.
-fn beyond_noise(s: &Scored) -> bool {
+pub fn beyond_noise(s: &Scored) -> bool {
     s.chi2 >= NOISE_CHI2_PER_COMPONENT * s.dofs.iter().sum::<f64>()
 }
 
@@ -212,7 +220,7 @@ pub fn amplitude_law(effect: &str) -> bool {
 /// use such a law's small nonlinearity to absorb some other misfit (a play of 0.03 mm in a
 /// campaign of 3 and 8 mm sines, seen on development seeds 14 and 35), which names an effect
 /// the measurements do not show.
-fn plausible(children: Vec<Scored>, parent: &Scored, obs: &[&Observation]) -> Vec<Scored> {
+pub fn plausible(children: Vec<Scored>, parent: &Scored, obs: &[&Observation]) -> Vec<Scored> {
     if !children.iter().any(|c| amplitude_law(&c.effect)) {
         return children;
     }
