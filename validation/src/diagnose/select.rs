@@ -27,6 +27,7 @@ use super::engine::{addable, score_candidate, score_candidates, Scored};
 use super::evidence::{amplitude_dependence, amplitude_dependence_shown};
 use super::measure::{aggregate, predict};
 use super::observe::Observation;
+pub use revise::replaces;
 use revise::{prune, swap};
 use zmp_models::ModelSpec;
 

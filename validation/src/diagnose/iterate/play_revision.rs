@@ -10,8 +10,8 @@
 //! servo at 0.3x held-out), or the delay was not named at all because, beside the command law,
 //! it removed too little (7108: 0.8x against 0.43x). So once the loop has settled, with the
 //! play inside its servo, each other effect is taken out and every catalogue effect tried in
-//! its place (the swap rule of the search: a better held-out chi-square by [`CHI2_MIN`], by the
-//! tie slack for a more complex effect, a simpler one within that slack), and every catalogue
+//! its place (the swap rule of the search, [`replaces`]: a simpler effect wins a near tie, a
+//! more complex one must win by more than the tie's slack), and every catalogue
 //! effect is tried on top (added when it removes most of what is left, [`dominates`], the
 //! search's test past "explained"). The best of these, by held-out chi-square, replaces the
 //! model. Each candidate fitted beside a play inside its servo costs seconds (the pass took
@@ -24,7 +24,7 @@ use super::super::candidates::{model_kinds, plausible, play_in_servo_starts, pla
 use super::super::engine::{self, cross_validate, Scored};
 use super::super::observe::Observation;
 use super::super::run::DiagnoseError;
-use super::super::select::{beyond_noise, complexity, dominates, plausible as supported, CHI2_MIN};
+use super::super::select::{beyond_noise, dominates, plausible as supported, replaces};
 use super::super::DiagnoseOptions;
 use zmp_models::ModelSpec;
 
@@ -49,7 +49,8 @@ pub(super) fn revise(
     };
     let now = cross_validate("parameter_refit", fitted, obs);
     // The same effects with the play inside its servo.
-    let law = if plays_on_command(current).is_empty() {
+    let on_command = !plays_on_command(current).is_empty();
+    let law = if !on_command {
         now.clone()
     } else {
         let Some(f) = engine::refit_all_from(
@@ -62,7 +63,6 @@ pub(super) fn revise(
         cross_validate("play_in_servo", f, obs)
     };
     let reference = if law.chi2 < now.chi2 { &law } else { &now };
-    let slack = CHI2_MIN.max(0.05 * reference.chi2);
     let threads = opts.threads;
     // (effect taken out, if any; the structure)
     let mut options: Vec<(Option<String>, Scored)> = Vec::new();
@@ -81,7 +81,6 @@ pub(super) fn revise(
     // On top: an effect that removes most of what is left, tried where the loop kept the play
     // on the command (where it moved the play inside the servo, it re-added what the path
     // named after the play and searched on top of that law while the data were unexplained).
-    let on_command = !plays_on_command(current).is_empty();
     if on_command && !at_noise {
         for c in children(&law, found) {
             if dominates(reference, &c) {
@@ -104,15 +103,7 @@ pub(super) fn revise(
             continue;
         };
         for c in children(&base, found) {
-            let margin = if complexity(&c.effect) > complexity(removed) {
-                slack
-            } else {
-                CHI2_MIN
-            };
-            let better = c.chi2 < reference.chi2 - margin
-                || (complexity(&c.effect) < complexity(removed)
-                    && c.chi2 <= reference.chi2 + slack);
-            if better {
+            if replaces(&c, removed, reference.chi2) {
                 options.push((Some(removed.clone()), c));
             }
         }

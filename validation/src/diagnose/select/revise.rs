@@ -35,7 +35,6 @@ pub(super) fn swap(
             base,
             obs,
         );
-        let slack = CHI2_MIN.max(0.05 * current.chi2);
         if let Some(b) = children.iter().min_by(|a, b| a.chi2.total_cmp(&b.chi2)) {
             progress(&format!(
                 "in place of {removed}: {} (held-out chi-square {:.0} against {:.0})",
@@ -44,18 +43,7 @@ pub(super) fn swap(
         }
         let Some(best) = children
             .iter()
-            .filter(|c| {
-                // The tie rule of `choose` both ways: a simpler effect wins within the slack,
-                // a more complex one must win by more than it.
-                let margin = if complexity(&c.effect) > complexity(removed) {
-                    slack
-                } else {
-                    CHI2_MIN
-                };
-                c.chi2 < current.chi2 - margin
-                    || (complexity(&c.effect) < complexity(removed)
-                        && c.chi2 <= current.chi2 + slack)
-            })
+            .filter(|c| replaces(c, removed, current.chi2))
             .min_by(|a, b| a.chi2.total_cmp(&b.chi2))
         else {
             continue;
@@ -65,6 +53,21 @@ pub(super) fn swap(
         return Some(steps_of(root, &chain));
     }
     None
+}
+
+/// Whether `c`, fitted in place of the effect `removed`, is better than the structure that had
+/// it (held-out chi-square `current`): the tie rule of [`super::choose`] both ways, a simpler
+/// effect wins within the slack (at least [`CHI2_MIN`], a twentieth of `current`), a more
+/// complex one must win by more than it, one alike by [`CHI2_MIN`].
+pub fn replaces(c: &Scored, removed: &str, current: f64) -> bool {
+    let slack = CHI2_MIN.max(0.05 * current);
+    let margin = if complexity(&c.effect) > complexity(removed) {
+        slack
+    } else {
+        CHI2_MIN
+    };
+    c.chi2 < current - margin
+        || (complexity(&c.effect) < complexity(removed) && c.chi2 <= current + slack)
 }
 
 /// The entries of `added` but the `k`-th, in order.
