@@ -1,0 +1,82 @@
+//! A structural mode in each plane, on data this project did not make: draws of the independent
+//! simulator (`zmp-indep-sim`, no physics code shared with `zmp-models`) whose trunk rings on a
+//! flexible link in x and in y, each plane at its own frequency (drawn from 10-35 rad/s, so one
+//! is often above the sweep's 15), on the seed's saturating robot.
+//!
+//! The mode candidate fitted the two planes' links together only from a shared starting
+//! frequency; a mode inside the sweep and one above it were then never both reached, the plane
+//! whose mode was missed took a delay instead, and the loop ended unexplained (held-out draw
+//! 1140013: x at 12.3 rad/s, y at 18.3; a delay of 43 ms on y, 1.85x the noise floor; the drawn
+//! structure refitted: 0.8x). The candidate now also starts the two links at every pair of
+//! different upper frequencies, and a link whose share of the mass ends at its floor is not
+//! taken for a mode.
+//!
+//! Draws: 1140013 (a held-out range already reported, examined after its one run) and 7302
+//! (fresh development draws 7300-7309, outside every range the blind suite reports).
+
+#[path = "support/indep_loop.rs"]
+mod indep_loop;
+
+use indep_loop::drawn_campaign;
+use zmp_models::{Axis, Binding, ModelSpec};
+use zmp_validation::diagnose::iterate::run_loop;
+use zmp_validation::diagnose::DiagnoseOptions;
+use zmp_validation::identify::IdentifyOptions;
+
+/// The frequency (rad/s) of the mode the final model puts on `b` (a flexible link of that
+/// input axis or a mode on that output axis's ZMP path).
+fn mode_frequency(m: &ModelSpec, b: Binding) -> Option<f64> {
+    m.value("flexible_trunk", b, "omega_n")
+        .or_else(|| m.value("structural_mode", b, "omega_n"))
+}
+
+/// The loop names a structural mode and nothing else, ends explained within the noise floor,
+/// and puts on each axis a mode within `tol` (relative) of the drawn one.
+fn check(seed: u64, tol: f64) {
+    let drawn = drawn_campaign(seed, "single:structural_mode");
+    let opts = DiagnoseOptions {
+        campaign_path: drawn.dir.path().join("campaign").display().to_string(),
+        model_path: "identified.toml".into(),
+        threads: 2,
+        ..DiagnoseOptions::default()
+    };
+    let r = run_loop(
+        &drawn.campaign,
+        None,
+        &IdentifyOptions::default(),
+        &opts,
+        &|_| {},
+    )
+    .unwrap();
+    assert!(
+        !r.found.is_empty() && r.found.iter().all(|e| e == "structural_mode"),
+        "draw {seed}: found {:?}",
+        r.found
+    );
+    assert!(
+        r.explained && r.final_error <= r.noise_floor,
+        "draw {seed}: explained {}, final {:.2}x the floor",
+        r.explained,
+        r.final_error / r.noise_floor
+    );
+    for (k, axis) in drawn.robot.axes.iter().enumerate() {
+        let b = Binding::Axis([Axis::X, Axis::Y][k]);
+        let want = axis.modes[0].omega;
+        let got = mode_frequency(&r.final_model, b)
+            .unwrap_or_else(|| panic!("draw {seed}: no mode on axis {k}"));
+        assert!(
+            (got - want).abs() <= tol * want,
+            "draw {seed}, axis {k}: mode at {got:.2} rad/s against the drawn {want:.2}"
+        );
+    }
+}
+
+#[test]
+fn a_mode_inside_the_sweep_and_one_above_it_are_both_found() {
+    check(1_140_013, 0.1);
+}
+
+#[test]
+fn a_plane_whose_mode_was_missed_no_longer_takes_a_delay() {
+    check(7302, 0.1);
+}
