@@ -19,6 +19,9 @@ use crate::identify::{identify_with_progress, Identification, IdentifyError, Ide
 use zmp_models::ModelSpec;
 
 mod play_revision;
+mod typical;
+
+pub use typical::TYPICAL_REFIT;
 
 /// Diagnosis rounds at most (each may add several effects).
 pub const MAX_ROUNDS: usize = 3;
@@ -210,6 +213,12 @@ fn run_loop_in_budget(
         current = aug.spec.clone();
         found = names;
         versions.push((vec![added], aug));
+    }
+    // A model with a mode that leaves the data unexplained: its structure refitted from
+    // typical values (an early effect may have absorbed part of a later one).
+    if let Some(aug) = typical::refit(&current, &obs, opts, progress)? {
+        current = aug.spec.clone();
+        versions.push((Vec::new(), aug));
     }
     let preds = predict(&current, &obs)?;
     let explained = explains(&obs, &preds);

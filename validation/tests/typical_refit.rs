@@ -1,0 +1,93 @@
+//! A structural mode beside a command delay, on data this project did not make: draws of the
+//! independent simulator (`zmp-indep-sim`, no physics code shared with `zmp-models`) whose
+//! trunk rings on a flexible link in each plane while the CoM reference reaches the servo late,
+//! on the seed's saturating robot.
+//!
+//! A mode and a delay both bend the phase; the loop adds one effect at a time, and the one
+//! added first can absorb part of the other (a link fit that puts nearly all the mass on the
+//! link, a servo low-pass slowed for it), so that the structure ends right but its fit stuck
+//! where it began. Two changes: a link whose share of the mass ends at its cap is not taken for
+//! a mode (`candidates::plausible`), and once the loop is done, a model with a mode that leaves
+//! the data unexplained is refitted from typical values (`iterate::typical`). Fresh development
+//! draws 7400-7409 of `pair:structural_mode,time_delay` (outside every range the blind suite
+//! reports): before, 7400 ended unexplained at 0.92x the floor and 7409 at 6.86x with the
+//! delay unnamed (now named, at 52 ms against the drawn 96, a sensor low-pass beside it: the
+//! test asserts the mode frequencies, not the delay's value).
+
+#[path = "support/indep_loop.rs"]
+mod indep_loop;
+
+use indep_loop::drawn_campaign;
+use zmp_indep_sim::Robot;
+use zmp_models::{Axis, Binding, ModelSpec};
+use zmp_validation::diagnose::iterate::{run_loop, LoopResult, TYPICAL_REFIT};
+use zmp_validation::diagnose::DiagnoseOptions;
+use zmp_validation::identify::IdentifyOptions;
+
+fn run(seed: u64) -> (LoopResult, Robot) {
+    let drawn = drawn_campaign(seed, "pair:structural_mode,time_delay");
+    let opts = DiagnoseOptions {
+        campaign_path: drawn.dir.path().join("campaign").display().to_string(),
+        model_path: "identified.toml".into(),
+        threads: 2,
+        ..DiagnoseOptions::default()
+    };
+    let r = run_loop(
+        &drawn.campaign,
+        None,
+        &IdentifyOptions::default(),
+        &opts,
+        &|_| {},
+    )
+    .unwrap();
+    (r, drawn.robot)
+}
+
+fn mode_frequency(m: &ModelSpec, b: Binding) -> Option<f64> {
+    m.value("flexible_trunk", b, "omega_n")
+        .or_else(|| m.value("structural_mode", b, "omega_n"))
+}
+
+/// The loop names the mode and the delay, ends explained within `max_ratio` of the noise
+/// floor with the typical refit as a version, and puts each plane's mode within 10 % of the
+/// drawn frequency.
+fn check(seed: u64, max_ratio: f64) {
+    let (r, robot) = run(seed);
+    for e in ["structural_mode", "time_delay"] {
+        assert!(
+            r.found.iter().any(|f| f == e),
+            "draw {seed}: found {:?}",
+            r.found
+        );
+    }
+    assert!(
+        r.versions.iter().any(|(_, v)| v.change == TYPICAL_REFIT),
+        "draw {seed}: no {TYPICAL_REFIT} version"
+    );
+    assert!(
+        r.explained && r.final_error <= max_ratio * r.noise_floor,
+        "draw {seed}: explained {}, final {:.2}x the floor",
+        r.explained,
+        r.final_error / r.noise_floor
+    );
+    for (k, axis) in robot.axes.iter().enumerate() {
+        let b = Binding::Axis([Axis::X, Axis::Y][k]);
+        let want = axis.modes[0].omega;
+        let got = mode_frequency(&r.final_model, b)
+            .unwrap_or_else(|| panic!("draw {seed}: no mode on axis {k}"));
+        assert!(
+            (got - want).abs() <= 0.1 * want,
+            "draw {seed}, axis {k}: mode at {got:.2} rad/s against the drawn {want:.2}"
+        );
+    }
+}
+
+#[test]
+fn a_mode_and_a_delay_fitted_one_after_the_other_are_refitted_from_typical_values() {
+    check(7400, 1.0);
+}
+
+#[test]
+fn a_delay_a_link_had_absorbed_is_named_once_the_link_is_no_mode() {
+    check(7409, 1.05);
+}
