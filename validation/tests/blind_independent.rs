@@ -110,8 +110,12 @@ use zmp_validation::par::parallel_map;
 /// 6/6, pairs 9/12, triples 2/3, clean 10/10, outside 5/8, closed 47/52, false effect 8/52;
 /// then examined: 1140013 and 1140004, lone modes left unexplained, a mode in each plane, one
 /// inside the sweep and one above it, which led to the two planes' links started at different
-/// frequencies).
-const HELD_OUT_FIRST_SEED: u64 = 1_150_000;
+/// frequencies; and 1140030, a mode beside a delay at 3.7x, whose link had taken the delay's
+/// phase at its share cap, which led to that cap ruled out and the refit from typical values); from 1150000 (run once on the code of f8cc365, the two planes' links started
+/// apart, a link at its share cap no mode, the typical refit at the end: singles 21/21,
+/// saturation and coupling 6/6, pairs 8/12, triples 2/3, clean 10/10, outside 2/8, closed
+/// 48/52, false effect 4/52; not examined).
+const HELD_OUT_FIRST_SEED: u64 = 1_160_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
