@@ -286,13 +286,18 @@ fn the_loop_moves_a_mode_the_filter_cannot_explain_inside_the_servo() {
 /// the new law and its value was not refitted. With it refitted the law is 1.4 per component,
 /// no cell significant, at 1.13x the floor; the error had to fall too, so it was not taken.
 /// It is now refitted from every start, and a law that explains the data where the filter
-/// does not is taken. Thresholds are the suite's closure rule (explained, within 2x).
+/// does not is taken. Since the loop ends with the refit from typical values
+/// (`iterate::typical`), the filter law refitted from the seed's servo and typical links
+/// explains this draw at 0.84x, lower than the law inside the servo, which is then tried and
+/// not taken: either route must end explained with both planes' links. Thresholds are the
+/// suite's closure rule (explained, within 2x).
 #[test]
-fn a_law_that_explains_the_data_is_taken_though_its_error_is_higher() {
+fn a_mode_the_filter_fit_left_unexplained_ends_explained_with_both_links() {
     let r = indep_loop::loop_on(1_030_030, "pair:structural_mode,time_delay");
     let changes: Vec<&str> = r.versions.iter().map(|(_, a)| a.change.as_str()).collect();
+    use zmp_validation::diagnose::iterate::{TRUNK_IN_SERVO, TYPICAL_REFIT};
     assert!(
-        changes.contains(&zmp_validation::diagnose::iterate::TRUNK_IN_SERVO),
+        changes.contains(&TRUNK_IN_SERVO) || changes.contains(&TYPICAL_REFIT),
         "versions {changes:?}"
     );
     assert!(
@@ -302,11 +307,7 @@ fn a_law_that_explains_the_data_is_taken_though_its_error_is_higher() {
     );
     assert!(r.final_error < 2.0 * r.noise_floor);
     let trunks = trunks(&r.final_model);
-    assert!(
-        trunks.len() == 2 && trunks.iter().all(|e| e.value("in_servo") == Some(1.0)),
-        "{}",
-        r.final_model.to_toml()
-    );
+    assert!(trunks.len() == 2, "{}", r.final_model.to_toml());
 }
 
 /// The flexible trunks of a model.
