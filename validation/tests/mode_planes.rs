@@ -17,37 +17,13 @@
 #[path = "support/indep_loop.rs"]
 mod indep_loop;
 
-use indep_loop::drawn_campaign;
-use zmp_models::{Axis, Binding, ModelSpec};
-use zmp_validation::diagnose::iterate::run_loop;
-use zmp_validation::diagnose::DiagnoseOptions;
-use zmp_validation::identify::IdentifyOptions;
-
-/// The frequency (rad/s) of the mode the final model puts on `b` (a flexible link of that
-/// input axis or a mode on that output axis's ZMP path).
-fn mode_frequency(m: &ModelSpec, b: Binding) -> Option<f64> {
-    m.value("flexible_trunk", b, "omega_n")
-        .or_else(|| m.value("structural_mode", b, "omega_n"))
-}
+use indep_loop::{loop_and_robot, mode_frequency};
+use zmp_models::{Axis, Binding};
 
 /// The loop names a structural mode and nothing else, ends explained within the noise floor,
 /// and puts on each axis a mode within `tol` (relative) of the drawn one.
 fn check(seed: u64, tol: f64) {
-    let drawn = drawn_campaign(seed, "single:structural_mode");
-    let opts = DiagnoseOptions {
-        campaign_path: drawn.dir.path().join("campaign").display().to_string(),
-        model_path: "identified.toml".into(),
-        threads: 2,
-        ..DiagnoseOptions::default()
-    };
-    let r = run_loop(
-        &drawn.campaign,
-        None,
-        &IdentifyOptions::default(),
-        &opts,
-        &|_| {},
-    )
-    .unwrap();
+    let (r, robot) = loop_and_robot(seed, "single:structural_mode");
     assert!(
         !r.found.is_empty() && r.found.iter().all(|e| e == "structural_mode"),
         "draw {seed}: found {:?}",
@@ -59,7 +35,7 @@ fn check(seed: u64, tol: f64) {
         r.explained,
         r.final_error / r.noise_floor
     );
-    for (k, axis) in drawn.robot.axes.iter().enumerate() {
+    for (k, axis) in robot.axes.iter().enumerate() {
         let b = Binding::Axis([Axis::X, Axis::Y][k]);
         let want = axis.modes[0].omega;
         let got = mode_frequency(&r.final_model, b)

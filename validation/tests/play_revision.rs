@@ -16,36 +16,13 @@
 #[path = "support/indep_loop.rs"]
 mod indep_loop;
 
-use indep_loop::drawn_campaign;
-use zmp_indep_sim::Robot;
+use indep_loop::loop_and_robot;
 use zmp_models::{Axis, Binding};
-use zmp_validation::diagnose::iterate::{run_loop, LoopResult};
-use zmp_validation::diagnose::DiagnoseOptions;
-use zmp_validation::identify::IdentifyOptions;
-
-fn run(seed: u64) -> (LoopResult, Robot) {
-    let drawn = drawn_campaign(seed, "pair:time_delay,backlash");
-    let opts = DiagnoseOptions {
-        campaign_path: drawn.dir.path().join("campaign").display().to_string(),
-        model_path: "identified.toml".into(),
-        threads: 2,
-        ..DiagnoseOptions::default()
-    };
-    let r = run_loop(
-        &drawn.campaign,
-        None,
-        &IdentifyOptions::default(),
-        &opts,
-        &|_| {},
-    )
-    .unwrap();
-    (r, drawn.robot)
-}
 
 /// The loop names the delay and the play and nothing else, the final model has the play
 /// inside its servo, and each axis's fitted delay is within `tol` (relative) of the drawn one.
 fn check(seed: u64, tol: f64) {
-    let (r, robot) = run(seed);
+    let (r, robot) = loop_and_robot(seed, "pair:time_delay,backlash");
     let mut found = r.found.clone();
     found.sort();
     assert_eq!(found, ["backlash", "time_delay"], "draw {seed}");

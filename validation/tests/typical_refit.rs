@@ -17,42 +17,15 @@
 #[path = "support/indep_loop.rs"]
 mod indep_loop;
 
-use indep_loop::drawn_campaign;
-use zmp_indep_sim::Robot;
-use zmp_models::{Axis, Binding, ModelSpec};
-use zmp_validation::diagnose::iterate::{run_loop, LoopResult, TYPICAL_REFIT};
-use zmp_validation::diagnose::DiagnoseOptions;
-use zmp_validation::identify::IdentifyOptions;
-
-fn run(seed: u64) -> (LoopResult, Robot) {
-    let drawn = drawn_campaign(seed, "pair:structural_mode,time_delay");
-    let opts = DiagnoseOptions {
-        campaign_path: drawn.dir.path().join("campaign").display().to_string(),
-        model_path: "identified.toml".into(),
-        threads: 2,
-        ..DiagnoseOptions::default()
-    };
-    let r = run_loop(
-        &drawn.campaign,
-        None,
-        &IdentifyOptions::default(),
-        &opts,
-        &|_| {},
-    )
-    .unwrap();
-    (r, drawn.robot)
-}
-
-fn mode_frequency(m: &ModelSpec, b: Binding) -> Option<f64> {
-    m.value("flexible_trunk", b, "omega_n")
-        .or_else(|| m.value("structural_mode", b, "omega_n"))
-}
+use indep_loop::{loop_and_robot, mode_frequency};
+use zmp_models::{Axis, Binding};
+use zmp_validation::diagnose::iterate::TYPICAL_REFIT;
 
 /// The loop names the mode and the delay, ends explained within `max_ratio` of the noise
 /// floor with the typical refit as a version, and puts each plane's mode within 10 % of the
 /// drawn frequency.
 fn check(seed: u64, max_ratio: f64) {
-    let (r, robot) = run(seed);
+    let (r, robot) = loop_and_robot(seed, "pair:structural_mode,time_delay");
     for e in ["structural_mode", "time_delay"] {
         assert!(
             r.found.iter().any(|f| f == e),

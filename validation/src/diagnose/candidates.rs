@@ -10,7 +10,9 @@ mod modes;
 mod play;
 
 use modes::structural_mode;
-pub use modes::{mode_free_axes, plausible, trunk_in_servo, trunk_law_starts, trunk_own_frees};
+pub use modes::{
+    mode_free_axes, plausible, trunk_in_servo, trunk_law_starts, trunk_own_frees, typical_links,
+};
 pub use play::{play_in_servo_starts, plays_on_command};
 
 /// One scalar the fit moves; it sets `param` of `kind` at every binding listed.

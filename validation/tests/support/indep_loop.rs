@@ -29,6 +29,21 @@ pub fn loop_with(
     start: Option<zmp_models::ModelSpec>,
     iopts: &IdentifyOptions,
 ) -> LoopResult {
+    loop_drawn(seed, scenario, start, iopts).0
+}
+
+/// [`loop_on`] and the drawn robot (its parameters, to check the fitted ones against).
+#[allow(dead_code)]
+pub fn loop_and_robot(seed: u64, scenario: &str) -> (LoopResult, Robot) {
+    loop_drawn(seed, scenario, None, &IdentifyOptions::default())
+}
+
+fn loop_drawn(
+    seed: u64,
+    scenario: &str,
+    start: Option<zmp_models::ModelSpec>,
+    iopts: &IdentifyOptions,
+) -> (LoopResult, Robot) {
     let drawn = drawn_campaign(seed, scenario);
     let (camp, camp_dir) = (drawn.campaign, drawn.dir.path().join("campaign"));
     let opts = DiagnoseOptions {
@@ -37,7 +52,16 @@ pub fn loop_with(
         threads: 2,
         ..DiagnoseOptions::default()
     };
-    run_loop(&camp, start, iopts, &opts, &|_| {}).unwrap()
+    let r = run_loop(&camp, start, iopts, &opts, &|_| {}).unwrap();
+    (r, drawn.robot)
+}
+
+/// The frequency (rad/s) of the structural mode a model puts on `b`: a flexible link of that
+/// input axis or a mode on that output axis's ZMP path.
+#[allow(dead_code)]
+pub fn mode_frequency(m: &zmp_models::ModelSpec, b: zmp_models::Binding) -> Option<f64> {
+    m.value("flexible_trunk", b, "omega_n")
+        .or_else(|| m.value("structural_mode", b, "omega_n"))
 }
 
 /// A draw of the independent simulator written as a campaign and read back.

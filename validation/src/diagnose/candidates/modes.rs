@@ -113,7 +113,7 @@ fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     for bindings in mode_variants(spec, r) {
         for k in 0..n {
             let wm = mode_start(r, k, n);
-            let (zeta, share) = (0.08, 0.4);
+            let (zeta, share) = (LINK_ZETA, LINK_SHARE);
             let s = with(
                 spec,
                 "flexible_trunk",
@@ -134,7 +134,7 @@ fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     if r.axes_excited[0] && r.axes_excited[1] && mode_free_axes(spec) == [true, true] {
         for k in 0..n {
             let wm = mode_start(r, k, n);
-            let (zeta, share) = (0.08, 0.4);
+            let (zeta, share) = (LINK_ZETA, LINK_SHARE);
             let s = with(
                 spec,
                 "flexible_trunk",
@@ -153,7 +153,7 @@ fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
         for kx in n - 3..n {
             for ky in (n - 3..n).filter(|&ky| ky != kx) {
                 let (wx, wy) = (mode_start(r, kx, n), mode_start(r, ky, n));
-                let (zeta, share) = (0.08, 0.4);
+                let (zeta, share) = (LINK_ZETA, LINK_SHARE);
                 let mut s = with(
                     spec,
                     "flexible_trunk",
@@ -237,9 +237,9 @@ pub fn trunk_law_starts(alt: &ModelSpec, r: &DataRange) -> Vec<ModelSpec> {
         for &b in &trunks {
             if let Some(w) = omega {
                 s.set_value("flexible_trunk", b, "omega_n", w);
-                s.set_value("flexible_trunk", b, "share", 0.4);
+                s.set_value("flexible_trunk", b, "share", LINK_SHARE);
             }
-            s.set_value("flexible_trunk", b, "zeta", 0.08);
+            s.set_value("flexible_trunk", b, "zeta", LINK_ZETA);
             s.set_value("flexible_trunk", b, "drive", DRIVE_START);
         }
         s
@@ -248,6 +248,35 @@ pub fn trunk_law_starts(alt: &ModelSpec, r: &DataRange) -> Vec<ModelSpec> {
     let mut out = vec![alt.clone(), typical(None)];
     out.extend((n - 3..n).map(|k| typical(Some(mode_start(r, k, n)))));
     out
+}
+
+/// A typical link's damping ratio and share of the axis's mass: where the flexible-trunk starts
+/// begin (with [`DRIVE_START`] of the inertia in the drive).
+const LINK_ZETA: f64 = 0.08;
+const LINK_SHARE: f64 = 0.4;
+
+/// The model with each of its structural modes (either form) made a typical link at its own
+/// frequency and law: damping [`LINK_ZETA`], share [`LINK_SHARE`], a flexible trunk's drive
+/// [`DRIVE_START`]. `None` without a mode. (The loop's refit from typical values starts here.)
+pub fn typical_links(spec: &ModelSpec) -> Option<ModelSpec> {
+    let modes: Vec<(&'static str, Binding)> = spec
+        .effects
+        .iter()
+        .filter(|e| matches!(e.info.kind, "structural_mode" | "flexible_trunk"))
+        .map(|e| (e.info.kind, e.binding))
+        .collect();
+    if modes.is_empty() {
+        return None;
+    }
+    let mut s = spec.clone();
+    for (kind, b) in modes {
+        s.set_value(kind, b, "zeta", LINK_ZETA);
+        s.set_value(kind, b, "share", LINK_SHARE);
+        if kind == "flexible_trunk" {
+            s.set_value(kind, b, "drive", DRIVE_START);
+        }
+    }
+    Some(s)
 }
 
 /// Upper bound of a structural mode's damping ratio in the fit: a resonance (peak gain

@@ -18,6 +18,7 @@
 //! excess over the noise, and the error lower or the data explained.
 
 use super::super::augment::Augmented;
+use super::super::candidates::{model_kinds, typical_links, CATALOGUE};
 use super::super::engine;
 use super::super::measure::predict;
 use super::super::observe::Observation;
@@ -29,40 +30,11 @@ use zmp_models::{Axis, Binding, ModelSpec};
 /// The change label of the version this writes.
 pub const TYPICAL_REFIT: &str = "refit-from-typical";
 
-/// The effect kinds whose parameters the refit frees besides the core (pendulum and servo
-/// low-pass): every effect the loop adds.
-const KINDS: [&str; 9] = [
-    "structural_mode",
-    "flexible_trunk",
-    "time_delay",
-    "backlash",
-    "coulomb_friction",
-    "acceleration_saturation",
-    "sensor_lowpass",
-    "operating_point_dependence",
-    "sensor_drift",
-];
-
-/// The model's structural modes made typical at their own frequencies; with `seed_servo` the
-/// tracking low-pass set to the seed's too. `None` without a mode.
+/// The model's structural modes made typical links at their own frequencies
+/// ([`typical_links`]); with `seed_servo` the tracking low-pass set to the seed's too. `None`
+/// without a mode.
 pub(super) fn typical_start(current: &ModelSpec, seed_servo: bool) -> Option<ModelSpec> {
-    let modes: Vec<(&'static str, Binding)> = current
-        .effects
-        .iter()
-        .filter(|e| matches!(e.info.kind, "structural_mode" | "flexible_trunk"))
-        .map(|e| (e.info.kind, e.binding))
-        .collect();
-    if modes.is_empty() {
-        return None;
-    }
-    let mut s = current.clone();
-    for (kind, b) in modes {
-        s.set_value(kind, b, "zeta", 0.08);
-        s.set_value(kind, b, "share", 0.4);
-        if kind == "flexible_trunk" {
-            s.set_value(kind, b, "drive", 0.3);
-        }
-    }
+    let mut s = typical_links(current)?;
     if seed_servo {
         for a in Axis::BOTH {
             s.set_value("tracking_lowpass", Binding::Axis(a), "omega_n", 30.0);
@@ -92,7 +64,12 @@ pub(super) fn refit(
         return Ok(None);
     }
     progress("refitting the structure from typical values");
-    let fitted = engine::refit_all_from(&starts, &KINDS, obs);
+    // Every parameter of every effect the loop can add, besides the core.
+    let kinds: Vec<&str> = CATALOGUE
+        .iter()
+        .flat_map(|c| model_kinds(c.effect).iter().copied())
+        .collect();
+    let fitted = engine::refit_all_from(&starts, &kinds, obs);
     adopt_law(current, &now, fitted.as_ref(), obs, TYPICAL_REFIT, opts)
 }
 
