@@ -94,32 +94,17 @@ pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> Rec
         return r;
     }
     // 3. Harmonic regression with a trend column (a drifting sensor's ramp stays out of the
-    // harmonics), the frequency refined on the detrended signals, then the final fit at the
-    // refined frequency.
+    // harmonics), the frequency refined on the signals less that trend, and the fit with the
+    // trend column at the refined frequency (from the refinement's own pass; the first fit if
+    // the frequency stayed).
     let k_max = opts.harmonics.clamp(1, 8);
     let Some(first) = sine::harmonic_fit_trend(sig, omega, dt, k_max) else {
         return excluded(rec, index, reason::BAD_DATA);
     };
-    let c = (st.len as f64 - 1.0) / 2.0;
-    let detrended: [Vec<f64>; 3] = std::array::from_fn(|j| {
-        let r = first.trend[j] * dt;
-        sig[j]
-            .iter()
-            .enumerate()
-            .map(|(k, y)| y - r * (k as f64 - c))
-            .collect()
-    });
-    let Some((w, _)) = sine::refine_frequency(
-        [&detrended[0][..], &detrended[1][..], &detrended[2][..]],
-        omega,
-        dt,
-        k_max,
-    ) else {
+    let Some((w, moved)) = sine::refine_frequency(sig, first.trend, omega, dt, k_max) else {
         return excluded(rec, index, reason::BAD_DATA);
     };
-    let Some(hf) = sine::harmonic_fit_trend(sig, w, dt, k_max) else {
-        return excluded(rec, index, reason::BAD_DATA);
-    };
+    let hf = moved.unwrap_or(first);
     // The outputs' residual colour (the input's is not used: its noise enters through
     // `noise_var[0]` alone).
     let local = noise::local_noise([sig[1], sig[2]], &hf.pick([1, 2]), w, dt);

@@ -66,13 +66,15 @@ const MAX_COLS: usize = 15;
 /// Fits DC + `k_max` harmonics of `omega` to each signal (centred), time from sample 0 of the
 /// slice. The data enter through one pass of sums, sin/cos by recurrence; the normal matrix is
 /// in closed form (see [`geometric_sums`]).
+/// (Only the tests' reference now: identification fits with the trend column.)
+#[cfg(test)]
 pub(crate) fn harmonic_fit<const S: usize>(
     signals: [&[f64]; S],
     omega: f64,
     dt: f64,
     k_max: usize,
 ) -> Option<HarmonicFit<S>> {
-    dispatch(signals, omega, dt, k_max, Mode::Plain).map(|f| f.0)
+    dispatch(signals, omega, dt, k_max, Mode::Plain, None).map(|p| p.fit)
 }
 
 /// [`harmonic_fit`] with a linear trend column besides DC (`[1, t, sin k w t, cos k w t]`):
@@ -84,17 +86,28 @@ pub(crate) fn harmonic_fit_trend<const S: usize>(
     dt: f64,
     k_max: usize,
 ) -> Option<HarmonicFit<S>> {
-    dispatch(signals, omega, dt, k_max, Mode::Trend).map(|f| f.0)
+    dispatch(signals, omega, dt, k_max, Mode::Trend, None).map(|p| p.fit)
 }
 
 /// What [`fit_k`] computes besides the harmonics.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Mode {
+    #[cfg(test)]
     Plain,
     /// The first and second derivative of the cost in the frequency.
     FrequencySlope,
     /// A linear trend column.
     Trend,
+}
+
+/// What one pass of [`fit_k`] returns: the fit, the cost's first and second derivative in the
+/// frequency ([`Mode::FrequencySlope`], else 0) and, with [`Mode::Trend`] and slopes given,
+/// the cost of the plain fit of the signals with those ramps taken out.
+struct Pass<const S: usize> {
+    fit: HarmonicFit<S>,
+    d1: f64,
+    d2: f64,
+    detrended_cost: Option<f64>,
 }
 
 fn dispatch<const S: usize>(
@@ -103,28 +116,31 @@ fn dispatch<const S: usize>(
     dt: f64,
     k_max: usize,
     mode: Mode,
-) -> Option<(HarmonicFit<S>, f64, f64)> {
+    ramps: Option<[f64; S]>,
+) -> Option<Pass<S>> {
     // Dispatch on the harmonic count so the accumulation loops unroll.
     match k_max {
-        1 => fit_k::<S, 1>(signals, omega, dt, mode),
-        2 => fit_k::<S, 2>(signals, omega, dt, mode),
-        3 => fit_k::<S, 3>(signals, omega, dt, mode),
-        4 => fit_k::<S, 4>(signals, omega, dt, mode),
-        5 => fit_k::<S, 5>(signals, omega, dt, mode),
-        6 => fit_k::<S, 6>(signals, omega, dt, mode),
-        _ => fit_k::<S, 7>(signals, omega, dt, mode),
+        1 => fit_k::<S, 1>(signals, omega, dt, mode, ramps),
+        2 => fit_k::<S, 2>(signals, omega, dt, mode, ramps),
+        3 => fit_k::<S, 3>(signals, omega, dt, mode, ramps),
+        4 => fit_k::<S, 4>(signals, omega, dt, mode, ramps),
+        5 => fit_k::<S, 5>(signals, omega, dt, mode, ramps),
+        6 => fit_k::<S, 6>(signals, omega, dt, mode, ramps),
+        _ => fit_k::<S, 7>(signals, omega, dt, mode, ramps),
     }
 }
 
-/// [`harmonic_fit`] and the first and second derivatives of its cost
-/// ([`HarmonicFit::cost`]) with respect to `omega`, exactly (variable projection).
+/// [`harmonic_fit`] of the signals less the ramps `ramps[j] (k - (n-1)/2)` (per sample, `None`:
+/// none) and the first and second derivatives of its cost ([`HarmonicFit::cost`]) with
+/// respect to `omega`, exactly (variable projection).
 fn harmonic_fit_with_slope<const S: usize>(
     signals: [&[f64]; S],
     omega: f64,
     dt: f64,
     k_max: usize,
+    ramps: Option<[f64; S]>,
 ) -> Option<(HarmonicFit<S>, f64, f64)> {
-    dispatch(signals, omega, dt, k_max, Mode::FrequencySlope)
+    dispatch(signals, omega, dt, k_max, Mode::FrequencySlope, ramps).map(|p| (p.fit, p.d1, p.d2))
 }
 
 /// `G_p(m) = sum_{k<n} k^p e^{i m theta k}` for `p = 0, 1, 2`: the sums that every entry of the
@@ -201,25 +217,40 @@ fn regressor_matrix(e: &[Complex64], k_max: usize) -> nalgebra::DMatrix<f64> {
 /// second derivative of the cost in `omega` (returned as 0 otherwise); with [`Mode::Trend`] a
 /// centred linear trend column `k - (n-1)/2` joins the regressors (its normal-matrix entries
 /// are the same geometric sums).
+///
+/// `ramps` (per sample, per signal): with [`Mode::FrequencySlope`] the signals are fitted less
+/// `ramps[j] (k - (n-1)/2)`, taken out on the fly; with [`Mode::Trend`] the signals are fitted
+/// as they are and the pass also returns the cost of the plain fit of the signals less the
+/// ramps (from the same sums: the ramp is the trend column); ignored with [`Mode::Plain`].
 fn fit_k<const S: usize, const K: usize>(
     signals: [&[f64]; S],
     omega: f64,
     dt: f64,
     mode: Mode,
-) -> Option<(HarmonicFit<S>, f64, f64)> {
+    ramps: Option<[f64; S]>,
+) -> Option<Pass<S>> {
     let slope = mode == Mode::FrequencySlope;
     let n = signals.iter().map(|s| s.len()).min().unwrap_or(0);
     let m = 1 + 2 * K;
     // r[j][a] = sum phi_a y_j; with `slope` also u = sum t phi_a y_j and v = sum t^2 phi_a y_j
-    // (signal-major, so the per-sample updates run over contiguous regressors).
+    // (signal-major, so the per-sample updates run over contiguous regressors); with the trend
+    // column ky[j] = sum k y_j.
     let mut r = [[0.0f64; MAX_COLS]; S];
     let mut u = [[0.0f64; MAX_COLS]; S];
     let mut v = [[0.0f64; MAX_COLS]; S];
     let mut yy = [0.0; S];
-    if slope {
-        accumulate::<S, K, true>(signals, n, omega, dt, &mut r, &mut u, &mut v, &mut yy);
-    } else {
-        accumulate::<S, K, false>(signals, n, omega, dt, &mut r, &mut u, &mut v, &mut yy);
+    let mut ky = [0.0; S];
+    let taken_out = if slope { ramps } else { None };
+    match (slope, mode == Mode::Trend) {
+        (true, _) => accumulate::<S, K, true, false>(
+            signals, n, omega, dt, taken_out, &mut r, &mut u, &mut v, &mut yy, &mut ky,
+        ),
+        (false, true) => accumulate::<S, K, false, true>(
+            signals, n, omega, dt, None, &mut r, &mut u, &mut v, &mut yy, &mut ky,
+        ),
+        (false, false) => accumulate::<S, K, false, false>(
+            signals, n, omega, dt, None, &mut r, &mut u, &mut v, &mut yy, &mut ky,
+        ),
     }
     let theta = omega * dt;
     let g: Vec<[Complex64; 3]> = (0..=2 * K).map(|q| geometric_sums(n, theta, q)).collect();
@@ -242,14 +273,13 @@ fn fit_k<const S: usize, const K: usize>(
             normal[(2 * h, m)] = z.re;
         }
         for j in 0..S {
-            let sk: f64 = signals[j][..n]
-                .iter()
-                .enumerate()
-                .map(|(k, y)| k as f64 * y)
-                .sum();
-            r_trend[j] = sk - c * r[j][0];
+            r_trend[j] = ky[j] - c * r[j][0];
         }
     }
+    let detrended_cost = match ramps {
+        Some(ramps) if trend => detrended_cost::<S>(&normal, m, &r, &r_trend, &yy, ramps),
+        _ => None,
+    };
     let cols = normal.nrows();
     let chol = normal.cholesky()?;
     let unit = |a: usize| {
@@ -294,7 +324,12 @@ fn fit_k<const S: usize, const K: usize>(
         n,
     };
     if !slope {
-        return Some((fit, 0.0, 0.0));
+        return Some(Pass {
+            fit,
+            d1: 0.0,
+            d2: 0.0,
+            detrended_cost,
+        });
     }
     // d/domega of sum_k e^{i q omega dt k} is i q dt G_1(q); the second derivative
     // -(q dt)^2 G_2(q).
@@ -329,26 +364,61 @@ fn fit_k<const S: usize, const K: usize>(
         d1 -= f1 / scale;
         d2 -= f2 / scale;
     }
-    Some((fit, d1, d2))
+    Some(Pass {
+        fit,
+        d1,
+        d2,
+        detrended_cost: None,
+    })
+}
+
+/// The cost ([`HarmonicFit::cost`]) of the plain fit of the signals less the ramps
+/// `ramps[j] (k - c)`, from the sums of a trend pass over the signals as they are: the ramp is
+/// the trend column, so its sums are the trend column's normal-matrix entries (`normal` is the
+/// trend fit's, `m` its harmonic block's size).
+fn detrended_cost<const S: usize>(
+    normal: &nalgebra::DMatrix<f64>,
+    m: usize,
+    r: &[[f64; MAX_COLS]; S],
+    r_trend: &[f64; S],
+    yy: &[f64; S],
+    ramps: [f64; S],
+) -> Option<f64> {
+    let chol = normal.view((0, 0), (m, m)).clone_owned().cholesky()?;
+    let mut cost = 0.0;
+    for j in 0..S {
+        let s = ramps[j];
+        let rd = nalgebra::DVector::from_fn(m, |a, _| r[j][a] - s * normal[(m, a)]);
+        let yyd = yy[j] - 2.0 * s * r_trend[j] + s * s * normal[(m, m)];
+        let x = chol.solve(&rd);
+        cost += (yyd - x.dot(&rd)).max(0.0) / yyd.max(1e-300);
+    }
+    Some(cost)
 }
 
 /// The data sums of [`fit_k`]: `r[j][a] = sum_k phi_a(k) y_j[k]` and, with `SLOPE`, the same
 /// weighted by `t_k` (`u`) and `t_k^2` (`v`), `t_k = k dt`; `yy[j] = sum y_j^2`.
+/// With `TREND`, `ky[j] = sum_k k y_j[k]`; with `ramps`, `y_j[k]` is the signal less
+/// `ramps[j] (k - (n-1)/2)`.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn accumulate<const S: usize, const K: usize, const SLOPE: bool>(
+fn accumulate<const S: usize, const K: usize, const SLOPE: bool, const TREND: bool>(
     signals: [&[f64]; S],
     n: usize,
     omega: f64,
     dt: f64,
+    ramps: Option<[f64; S]>,
     r: &mut [[f64; MAX_COLS]; S],
     u: &mut [[f64; MAX_COLS]; S],
     v: &mut [[f64; MAX_COLS]; S],
     yy: &mut [f64; S],
+    ky: &mut [f64; S],
 ) {
     let mut phi = [0.0f64; MAX_COLS];
     // Sliced to exactly n so that the per-sample reads need no bounds checks.
     let signals = signals.map(|s| &s[..n]);
+    let centre = (n as f64 - 1.0) / 2.0;
+    let ramps = ramps.unwrap_or([0.0; S]);
     let (ds, dc) = (omega * dt).sin_cos();
     let (mut s1, mut c1) = (0.0f64, 1.0f64);
     for k in 0..n {
@@ -364,8 +434,12 @@ fn accumulate<const S: usize, const K: usize, const SLOPE: bool>(
             sk = ns;
         }
         let t = k as f64 * dt;
+        let kf = k as f64;
         for j in 0..S {
-            let y = signals[j][k];
+            let y = signals[j][k] - ramps[j] * (kf - centre);
+            if TREND {
+                ky[j] += kf * y;
+            }
             yy[j] += y * y;
             r[j][0] += y;
             for a in 1..1 + 2 * K {
@@ -391,14 +465,22 @@ fn accumulate<const S: usize, const K: usize, const SLOPE: bool>(
 /// its exact first and second derivatives from the same pass of sums as the fit at `omega0`
 /// (the step is clamped to two tenths of the record's frequency resolution, and kept only if
 /// it lowers the residual).
+///
+/// The cost is that of the signals less the trend `trend` fitted at `omega0` (per second, as
+/// in [`HarmonicFit::trend`]; taken out on the fly, around the slice's middle). Returns the
+/// frequency and, if it moved, the fit with the trend column of the signals as they are at the
+/// new frequency ([`harmonic_fit_trend`], from the same pass as the step's check); `None` means
+/// the frequency stayed at `omega0`, whose trend fit the caller has.
 pub(crate) fn refine_frequency<const S: usize>(
     signals: [&[f64]; S],
+    trend: [f64; S],
     omega0: f64,
     dt: f64,
     k_max: usize,
-) -> Option<(f64, HarmonicFit<S>)> {
+) -> Option<(f64, Option<HarmonicFit<S>>)> {
     let n = signals[0].len();
-    let (f0, d1, d2) = harmonic_fit_with_slope(signals, omega0, dt, k_max)?;
+    let ramps = trend.map(|r| r * dt);
+    let (f0, d1, d2) = harmonic_fit_with_slope(signals, omega0, dt, k_max, Some(ramps))?;
     let span = n as f64 * dt;
     // A tenth of the frequency resolution of the record.
     let delta = 0.1 * 2.0 * PI / span;
@@ -406,13 +488,13 @@ pub(crate) fn refine_frequency<const S: usize>(
         let step = (-d1 / d2).clamp(-2.0 * delta, 2.0 * delta);
         if step.abs() > 1e-6 * delta {
             let w = omega0 + step;
-            let fw = harmonic_fit(signals, w, dt, k_max)?;
-            if fw.cost() < f0.cost() {
-                return Some((w, fw));
+            let pass = dispatch(signals, w, dt, k_max, Mode::Trend, Some(ramps))?;
+            if pass.detrended_cost? < f0.cost() {
+                return Some((w, Some(pass.fit)));
             }
         }
     }
-    Some((omega0, f0))
+    Some((omega0, None))
 }
 
 #[cfg(test)]
@@ -540,7 +622,7 @@ mod tests {
             .map(|v| 0.4 * v)
             .collect();
         let sig = [&y1[..], &y2[..]];
-        let (f0, d1, d2) = harmonic_fit_with_slope(sig, omega, dt, 3).unwrap();
+        let (f0, d1, d2) = harmonic_fit_with_slope(sig, omega, dt, 3, None).unwrap();
         let h = 1e-4;
         let c = |w: f64| harmonic_fit(sig, w, dt, 3).unwrap().cost();
         let fd1 = (c(omega + h) - c(omega - h)) / (2.0 * h);
@@ -551,8 +633,70 @@ mod tests {
         );
         assert!((d2 - fd2).abs() < 1e-3 * fd2.abs(), "{d2} vs {fd2}");
         // The Newton step lands on the minimum of the cost.
-        let (w, _) = refine_frequency(sig, omega, dt, 3).unwrap();
+        let (w, moved) = refine_frequency(sig, [0.0; 2], omega, dt, 3).unwrap();
         let (lo, hi) = (c(w - 1e-4), c(w + 1e-4));
         assert!(c(w) <= lo && c(w) <= hi, "{w}: {lo} {} {hi}", c(w));
+        assert!(moved.is_some(), "the frequency was off by 0.07 %");
+    }
+
+    #[test]
+    fn refinement_on_the_detrended_signals_from_one_pass_each() {
+        // Two ramps of different slopes on two off-frequency signals.
+        let (dt, omega, n) = (0.005, 2.3, 4001);
+        let ramp = [3e-3, -1.2e-3];
+        let ys: Vec<Vec<f64>> = (0..2)
+            .map(|j| {
+                signal(n, omega * 1.0006, dt, 0.1 + j as f64)
+                    .iter()
+                    .enumerate()
+                    .map(|(k, v)| v + ramp[j] * k as f64 * dt)
+                    .collect()
+            })
+            .collect();
+        let sig = [&ys[0][..], &ys[1][..]];
+        let first = harmonic_fit_trend(sig, omega, dt, 3).unwrap();
+        // The same ramps taken out by hand, the way the refinement takes them out.
+        let c = (n as f64 - 1.0) / 2.0;
+        let detrended: Vec<Vec<f64>> = (0..2)
+            .map(|j| {
+                let r = first.trend[j] * dt;
+                sig[j]
+                    .iter()
+                    .enumerate()
+                    .map(|(k, y)| y - r * (k as f64 - c))
+                    .collect()
+            })
+            .collect();
+        let dsig = [&detrended[0][..], &detrended[1][..]];
+        let (w, moved) = refine_frequency(sig, first.trend, omega, dt, 3).unwrap();
+        let (w_hand, _) = refine_frequency(dsig, [0.0; 2], omega, dt, 3).unwrap();
+        assert!((w - w_hand).abs() < 1e-12, "{w} against {w_hand}");
+        assert!((w - omega * 1.0006).abs() < 1e-4 * omega, "{w}");
+        // The fit it returns is the trend fit at the new frequency of the signals as they are.
+        let got = moved.expect("moved");
+        let want = harmonic_fit_trend(sig, w, dt, 3).unwrap();
+        for j in 0..2 {
+            assert!((got.trend[j] - want.trend[j]).abs() < 1e-12);
+            assert!((got.rss[j] - want.rss[j]).abs() < 1e-9 * want.yy[j]);
+            for h in 0..3 {
+                assert!((got.harmonics[j][h] - want.harmonics[j][h]).norm() < 1e-12);
+            }
+        }
+        // And the cost it checked the step with is the plain fit's on the detrended signals.
+        let pass = dispatch(
+            sig,
+            w,
+            dt,
+            3,
+            Mode::Trend,
+            Some(first.trend.map(|r| r * dt)),
+        )
+        .unwrap();
+        let plain = harmonic_fit(dsig, w, dt, 3).unwrap().cost();
+        let cost = pass.detrended_cost.unwrap();
+        assert!(
+            (cost - plain).abs() < 1e-9 * plain.max(1e-12),
+            "{cost} against {plain}"
+        );
     }
 }
