@@ -13,6 +13,12 @@
 //! reports): before, 7400 ended unexplained at 0.92x the floor and 7409 at 6.86x with the
 //! delay unnamed (now named, at 52 ms against the drawn 96, a sensor low-pass beside it: the
 //! test asserts the mode frequencies, not the delay's value).
+//!
+//! The refit also starts with each mode at each upper starting frequency of the mode candidate
+//! and with the delays cut to three tenths: spent held-out draw 1150030 (examined after its
+//! range was run) has a y mode at 22.5 rad/s, above the sweep, that the loop fitted at 41.8
+//! with delays of 46-49 ms standing in for it (2.20x the floor). The tolerances below were set
+//! after seeing these draws' runs.
 
 #[path = "support/indep_loop.rs"]
 mod indep_loop;
@@ -23,8 +29,14 @@ use zmp_validation::diagnose::iterate::TYPICAL_REFIT;
 
 /// The loop names the mode and the delay, ends explained within `max_ratio` of the noise
 /// floor with the typical refit as a version, and puts each plane's mode within 10 % of the
-/// drawn frequency.
-fn check(seed: u64, max_ratio: f64) {
+/// drawn frequency; returns the loop's result and the drawn robot.
+fn check(
+    seed: u64,
+    max_ratio: f64,
+) -> (
+    zmp_validation::diagnose::iterate::LoopResult,
+    zmp_indep_sim::Robot,
+) {
     let (r, robot) = loop_and_robot(seed, "pair:structural_mode,time_delay");
     for e in ["structural_mode", "time_delay"] {
         assert!(
@@ -53,14 +65,33 @@ fn check(seed: u64, max_ratio: f64) {
             "draw {seed}, axis {k}: mode at {got:.2} rad/s against the drawn {want:.2}"
         );
     }
+    (r, robot)
 }
 
 #[test]
 fn a_mode_and_a_delay_fitted_one_after_the_other_are_refitted_from_typical_values() {
-    check(7400, 1.0);
+    let _ = check(7400, 1.0);
 }
 
 #[test]
 fn a_delay_a_link_had_absorbed_is_named_once_the_link_is_no_mode() {
-    check(7409, 1.05);
+    let _ = check(7409, 1.05);
+}
+
+#[test]
+fn a_mode_above_the_sweep_a_long_delay_stood_in_for_is_refitted_at_its_frequency() {
+    let seed = 1_150_030;
+    let (r, robot) = check(seed, 1.0);
+    // And the delays come back to the drawn one (14 ms), not the 46-49 ms that took the mode.
+    for (k, axis) in robot.axes.iter().enumerate() {
+        let b = Binding::Axis([Axis::X, Axis::Y][k]);
+        let got = r.final_model.value("time_delay", b, "delay").unwrap_or(0.0);
+        let want = axis.command_delay;
+        assert!(
+            (got - want).abs() <= 0.25 * want,
+            "axis {k}: delay {:.1} ms against the drawn {:.1}",
+            got * 1e3,
+            want * 1e3
+        );
+    }
 }

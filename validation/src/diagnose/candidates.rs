@@ -12,6 +12,7 @@ mod play;
 use modes::structural_mode;
 pub use modes::{
     mode_free_axes, plausible, trunk_in_servo, trunk_law_starts, trunk_own_frees, typical_links,
+    upper_mode_starts,
 };
 pub use play::{play_in_servo_starts, plays_on_command};
 

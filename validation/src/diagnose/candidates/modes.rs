@@ -86,6 +86,13 @@ pub(super) fn structural_mode(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     out
 }
 
+/// The upper three of the mode candidate's starting frequencies (the ones the two planes'
+/// links also start apart from): where a mode the loop fitted to the wrong frequency may sit.
+pub fn upper_mode_starts(r: &DataRange) -> [f64; 3] {
+    let n = TRUNK_STARTS;
+    [n - 3, n - 2, n - 1].map(|k| mode_start(r, k, n))
+}
+
 /// Starting frequencies of a flexible trunk ([`mode_start`] of this many): the candidate's and
 /// the trunk law's ([`trunk_law_starts`]).
 const TRUNK_STARTS: usize = 5;
