@@ -5,6 +5,7 @@ pub mod calibrate;
 pub mod cli;
 pub mod compare;
 pub mod experiment;
+mod figures;
 pub mod ik;
 pub mod postures;
 pub mod report;
