@@ -114,8 +114,13 @@ use zmp_validation::par::parallel_map;
 /// phase at its share cap, which led to that cap ruled out and the refit from typical values); from 1150000 (run once on the code of f8cc365, the two planes' links started
 /// apart, a link at its share cap no mode, the typical refit at the end: singles 21/21,
 /// saturation and coupling 6/6, pairs 8/12, triples 2/3, clean 10/10, outside 2/8, closed
-/// 48/52, false effect 4/52; not examined).
-const HELD_OUT_FIRST_SEED: u64 = 1_160_000;
+/// 48/52, false effect 4/52; then examined: 1150030, a mode above the sweep a long delay stood
+/// in for, which led to the refit from typical values starting each mode at the upper
+/// frequencies and the delays cut to three tenths); from 1160000 (run once on the code of
+/// 718b597, those starts and the three-pass harmonic regression in: singles 21/21, saturation
+/// and coupling 6/6, pairs 7/12, triples 2/3, clean 10/10, outside 3/8, closed 50/52, false
+/// effect 5/52; not examined).
+const HELD_OUT_FIRST_SEED: u64 = 1_170_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
