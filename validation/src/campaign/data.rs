@@ -11,7 +11,7 @@ use super::error::{CampaignError, Part};
 use super::{Record, RecordMeta};
 use number::push_f64;
 use parser::Parser;
-use rows::{drive_csv, drive_simple, scan};
+use rows::{count_byte, drive_csv, drive_simple, is_simple};
 use std::path::Path;
 
 /// The required columns, in the order they are written.
@@ -39,9 +39,8 @@ pub fn parse_record(
     sample_rate_hz: Option<f64>,
 ) -> Result<Record, CampaignError> {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
-    let (lines, simple) = scan(bytes);
-    let mut parser = Parser::new(file, index, lines + 1);
-    if simple {
+    let mut parser = Parser::new(file, index, count_byte(bytes, b'\n') + 1);
+    if is_simple(bytes) {
         drive_simple(bytes, &mut parser)?;
     } else {
         drive_csv(bytes, &mut parser)?;
@@ -58,16 +57,8 @@ pub(crate) fn check_time(
 ) -> Result<(), (Option<usize>, String)> {
     let n = t.len();
     debug_assert!(n >= 2);
-    // One pass for the smallest and largest step; a step that is not positive is then found
-    // again for its row.
-    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
-    for w in t.windows(2) {
-        let step = w[1] - w[0];
-        lo = lo.min(step);
-        hi = hi.max(step);
-    }
-    if lo <= 0.0 {
-        if let Some(i) = (1..n).find(|&i| t[i] <= t[i - 1]) {
+    for i in 1..n {
+        if t[i] <= t[i - 1] {
             return Err((
                 Some(i),
                 format!(
@@ -84,6 +75,12 @@ pub(crate) fn check_time(
     }
     // Every step must be within 1 % of the typical (median) step. Fast path without the median:
     // if max <= (1 + tol) min, every step is within tol of any value between min and max.
+    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+    for w in t.windows(2) {
+        let step = w[1] - w[0];
+        lo = lo.min(step);
+        hi = hi.max(step);
+    }
     if hi > (1.0 + STEP_TOLERANCE) * lo {
         let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
         let mid = steps.len() / 2;

@@ -14,37 +14,14 @@ pub(super) fn count_byte(bytes: &[u8], needle: u8) -> usize {
     n + chunks.remainder().iter().filter(|&&b| b == needle).count()
 }
 
-/// The line ends (`\n`) of a file, and whether it is simple: no quotes and no `\r` other than
-/// in `\r\n`, so that lines and cells can be split on `\n` and `,` directly, much faster than
-/// the general CSV state machine. One pass for the three bytes.
-pub(super) fn scan(bytes: &[u8]) -> (usize, bool) {
-    let mut chunks = bytes.chunks_exact(64);
-    let [mut nl, mut quote, mut cr] = [0usize; 3];
-    for chunk in &mut chunks {
-        let (mut a, mut b, mut c) = (0u8, 0u8, 0u8);
-        for &x in chunk {
-            a += (x == b'\n') as u8;
-            b += (x == b'"') as u8;
-            c += (x == b'\r') as u8;
-        }
-        nl += a as usize;
-        quote += b as usize;
-        cr += c as usize;
-    }
-    for &x in chunks.remainder() {
-        nl += (x == b'\n') as usize;
-        quote += (x == b'"') as usize;
-        cr += (x == b'\r') as usize;
-    }
-    let simple =
-        quote == 0 && (cr == 0 || cr == bytes.windows(2).filter(|w| *w == b"\r\n").count());
-    (nl, simple)
-}
-
-/// The simple test of [`scan`] alone.
-#[cfg(test)]
+/// True when the file has no quotes and no `\r` other than in `\r\n`: then lines and cells can
+/// be split on `\n` and `,` directly, much faster than the general CSV state machine.
 pub(super) fn is_simple(bytes: &[u8]) -> bool {
-    scan(bytes).1
+    if count_byte(bytes, b'"') != 0 {
+        return false;
+    }
+    let cr = count_byte(bytes, b'\r');
+    cr == 0 || cr == bytes.windows(2).filter(|w| *w == b"\r\n").count()
 }
 
 /// The cells of one CSV row.
@@ -347,8 +324,6 @@ mod tests {
     fn counting_and_simplicity() {
         let text = "a\nb\r\n".repeat(100);
         assert_eq!(count_byte(text.as_bytes(), b'\n'), 200);
-        assert_eq!(scan(text.as_bytes()).0, 200);
-        assert_eq!(scan(b"a\r\nb\nc").0, 2);
         assert!(is_simple(text.as_bytes()));
         assert!(!is_simple(b"a\rb\n"));
         assert!(!is_simple(b"\"a\"\n"));
