@@ -12,8 +12,8 @@ mod saturation;
 
 use modes::structural_mode;
 pub use modes::{
-    mode_free_axes, plausible, trunk_in_servo, trunk_law_starts, trunk_own_frees, typical_links,
-    upper_mode_starts,
+    mode_bindings, mode_free_axes, plausible, trunk_in_servo, trunk_law_starts, trunk_own_frees,
+    typical_links, upper_mode_starts,
 };
 pub use play::{play_in_servo_starts, plays_on_command};
 use saturation::acceleration_saturation;
@@ -462,6 +462,19 @@ pub fn model_kinds(effect: &str) -> &[&str] {
     }
 }
 
+/// The tests' campaign: sines of 3-8 mm from 0.5 to 15 rad/s on both axes.
+#[cfg(test)]
+pub(crate) fn test_range() -> DataRange {
+    DataRange {
+        omega_min: 0.5,
+        omega_max: 15.0,
+        amplitude_min: 0.003,
+        amplitude_max: 0.008,
+        op_span: [0.06, 0.04],
+        axes_excited: [true, true],
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -478,14 +491,7 @@ mod tests {
     }
 
     pub(super) fn range() -> DataRange {
-        DataRange {
-            omega_min: 0.5,
-            omega_max: 15.0,
-            amplitude_min: 0.003,
-            amplitude_max: 0.008,
-            op_span: [0.06, 0.04],
-            axes_excited: [true, true],
-        }
+        test_range()
     }
 
     /// A refit moves a play's width, and its drive share only inside the servo; the

@@ -262,16 +262,20 @@ pub fn trunk_law_starts(alt: &ModelSpec, r: &DataRange) -> Vec<ModelSpec> {
 const LINK_ZETA: f64 = 0.08;
 const LINK_SHARE: f64 = 0.4;
 
+/// The structural modes of a model, in either form: each one's kind and binding.
+pub fn mode_bindings(spec: &ModelSpec) -> Vec<(&'static str, Binding)> {
+    spec.effects
+        .iter()
+        .filter(|e| matches!(e.info.kind, "structural_mode" | "flexible_trunk"))
+        .map(|e| (e.info.kind, e.binding))
+        .collect()
+}
+
 /// The model with each of its structural modes (either form) made a typical link at its own
 /// frequency and law: damping [`LINK_ZETA`], share [`LINK_SHARE`], a flexible trunk's drive
 /// [`DRIVE_START`]. `None` without a mode. (The loop's refit from typical values starts here.)
 pub fn typical_links(spec: &ModelSpec) -> Option<ModelSpec> {
-    let modes: Vec<(&'static str, Binding)> = spec
-        .effects
-        .iter()
-        .filter(|e| matches!(e.info.kind, "structural_mode" | "flexible_trunk"))
-        .map(|e| (e.info.kind, e.binding))
-        .collect();
+    let modes = mode_bindings(spec);
     if modes.is_empty() {
         return None;
     }

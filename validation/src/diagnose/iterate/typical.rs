@@ -19,7 +19,7 @@
 
 use super::super::augment::Augmented;
 use super::super::candidates::{
-    model_kinds, typical_links, upper_mode_starts, DataRange, CATALOGUE,
+    mode_bindings, model_kinds, typical_links, upper_mode_starts, DataRange, CATALOGUE,
 };
 use super::super::engine;
 use super::super::measure::predict;
@@ -56,13 +56,7 @@ pub(super) fn typical_start(current: &ModelSpec, seed_servo: bool) -> Option<Mod
 fn moved_starts(starts: Vec<ModelSpec>, r: &DataRange) -> Vec<ModelSpec> {
     let mut out = starts.clone();
     for s in &starts {
-        let modes: Vec<(&'static str, Binding)> = s
-            .effects
-            .iter()
-            .filter(|e| matches!(e.info.kind, "structural_mode" | "flexible_trunk"))
-            .map(|e| (e.info.kind, e.binding))
-            .collect();
-        for &(kind, b) in &modes {
+        for (kind, b) in mode_bindings(s) {
             for w in upper_mode_starts(r) {
                 let mut t = s.clone();
                 t.set_value(kind, b, "omega_n", w);
@@ -186,14 +180,7 @@ mod tests {
              [flexible_trunk.y]\nomega_n = 41.8\nzeta = 0.08\nshare = 0.4\ndrive = 0.3\n\
              [time_delay.x]\ndelay = 0.049\n[time_delay.y]\ndelay = 0.046\n",
         );
-        let r = DataRange {
-            omega_min: 0.5,
-            omega_max: 15.0,
-            amplitude_min: 0.003,
-            amplitude_max: 0.008,
-            op_span: [0.06, 0.04],
-            axes_excited: [true, true],
-        };
+        let r = super::super::super::candidates::test_range();
         let up = upper_mode_starts(&r);
         // Above a sixth of the sweep's top, up to two and a half times it.
         assert!(up[0] > 2.5 && up[2] < 37.5 && up[0] < up[1] && up[1] < up[2]);
