@@ -9,14 +9,17 @@
 //!   friction are now named only when the small sines respond less or later beyond the noise
 //!   (`evidence::amplitude_dependence`).
 //!
-//! And two where it named too little: seed 970010 of the spent held-out range, play alone on
+//! And draws where it named too little: seed 970010 of the spent held-out range, play alone on
 //! a saturating robot. The play took the held-out error from 1.6x to 1.3x the noise floor
 //! (more than half the excess error) but removed only 6 % of the excess chi-square, which the
 //! few lowest-noise records dominate with a misfit of something else; the search's test
 //! asked for 10 % and the loop ended at 2.7x with nothing found. The test now also takes half
 //! of the excess error (`select::MIN_ERROR_FRACTION`). Seed 1030039 lost a delay to a
 //! structural mode in the swap pass, and seed 1060035 a delay beside play where the play alone
-//! already explained the data (both below).
+//! already explained the data (both below). Seed 1160031 (spent held-out, examined after its
+//! range), a play of 0.3 mm beside an operating-point dependence: the amplitude contrast did not
+//! show the play because three pairs whose 8 mm sine the force limit clamps outweighed the
+//! others; such pairs are left out of the contrast now.
 
 #[path = "support/indep_loop.rs"]
 mod indep_loop;
@@ -60,6 +63,17 @@ fn play_is_not_named_when_small_and_large_sines_respond_alike() {
         "backlash never tried"
     );
     assert!(r.explained, "final {:.2}x", r.final_error / r.noise_floor);
+}
+
+#[test]
+fn play_is_named_when_only_the_clamped_pairs_hid_its_amplitude_dependence() {
+    let r = loop_on(1_160_031, "pair:backlash,operating_point_dependence");
+    let mut found = r.found.clone();
+    found.sort();
+    assert_eq!(found, ["backlash", "operating_point_dependence"]);
+    // Before, the loop ended `unexplained` at 0.52x the floor.
+    assert!(r.explained, "final {:.2}x", r.final_error / r.noise_floor);
+    assert!(r.final_error <= 0.4 * r.noise_floor);
 }
 
 #[test]

@@ -5,6 +5,7 @@ use super::measure::Prediction;
 use super::observe::Observation;
 use std::collections::BTreeMap;
 use std::fmt::Write;
+use zmp_models::ModelSpec;
 
 mod features;
 
@@ -14,11 +15,13 @@ pub use features::{
     unwrapped_phase, AmplitudeDependence, AMPLITUDE_Z,
 };
 
-/// The evidence sentence for a fitted effect. `base` holds the starting model's predictions,
-/// `after` the ones with the effect; `params` its fitted parameters (name, value, s.e.).
+/// The evidence sentence for a fitted effect. `base` holds the starting model's (`base_spec`)
+/// predictions; `params` the effect's fitted parameters (name, value, s.e.).
+#[allow(clippy::too_many_arguments)]
 pub fn sentence(
     effect: &str,
     obs: &[&Observation],
+    base_spec: &ModelSpec,
     base: &[Prediction],
     params: &BTreeMap<String, (f64, f64)>,
     error_before: f64,
@@ -121,9 +124,9 @@ pub fn sentence(
             } else {
                 "Coulomb friction decelerating the CoM"
             };
-            let dep = amplitude_dependence(obs, base);
+            let dep = amplitude_dependence(obs, base, base_spec);
             match (
-                amplitude_contrast(obs, &r),
+                amplitude_contrast(obs, &r, base_spec),
                 amplitude_dependence_shown(&dep),
             ) {
                 (Some((g, p, low)), Some(shown)) => {

@@ -562,12 +562,14 @@ fn finding(
     selected: bool,
 ) -> Finding {
     let params = own_parameters(s);
-    let before = &predict(&without_effect(s), obs).unwrap_or_default();
+    let base_spec = without_effect(s);
+    let before = &predict(&base_spec, obs).unwrap_or_default();
     let after = predict(&s.fitted.spec, obs).unwrap_or_else(|_| before.to_vec());
     let g = gain(parent, s);
     let mut evidence = sentence(
         &s.effect,
         obs,
+        &base_spec,
         before,
         &params,
         parent.error,

@@ -227,7 +227,9 @@ pub fn plausible(children: Vec<Scored>, parent: &Scored, obs: &[&Observation]) -
     }
     let shown = predict(&parent.fitted.spec, obs)
         .ok()
-        .and_then(|p| amplitude_dependence_shown(&amplitude_dependence(obs, &p)))
+        .and_then(|p| {
+            amplitude_dependence_shown(&amplitude_dependence(obs, &p, &parent.fitted.spec))
+        })
         .unwrap_or(true);
     children
         .into_iter()
