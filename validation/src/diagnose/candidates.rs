@@ -235,7 +235,7 @@ fn one_param(
 fn time_delay(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     // Up to 3 rad of phase at the highest frequency (150 ms at 20 rad/s).
     let tmax = (3.0 / r.omega_max).min(0.45);
-    one_param(
+    let mut out = one_param(
         spec,
         r,
         "time_delay",
@@ -243,7 +243,40 @@ fn time_delay(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
         &[0.1 / r.omega_max, 0.5 / r.omega_max, 1.5 / r.omega_max],
         0.0,
         tmax,
-    )
+    );
+    // A servo low-pass slower than the seed's may have absorbed the delay: also start from the
+    // seed's servo with the delay taking the difference of the lags.
+    if let Some(absorbed) = absorbed_lag(spec, r) {
+        let mut seed = spec.clone();
+        for b in AXES {
+            seed.set_value("tracking_lowpass", b, "omega_n", SEED_SERVO.0);
+            seed.set_value("tracking_lowpass", b, "zeta", SEED_SERVO.1);
+        }
+        out.extend(per_axis(
+            &seed,
+            r,
+            "time_delay",
+            "delay",
+            &[absorbed.min(tmax)],
+            0.0,
+            tmax,
+        ));
+    }
+    out
+}
+
+/// The seed's servo tracking low-pass `(omega_n, zeta)`: 30 rad/s, critically damped.
+pub const SEED_SERVO: (f64, f64) = (30.0, 1.0);
+
+/// How much more the model's servo low-pass lags than the seed's below their bandwidths,
+/// `2 zeta / omega_n` against `2 / 30` s (what a delay of that length lags too), when the
+/// model has a low-pass and the difference is more than the delay candidate's shortest start
+/// (a tenth of a radian at the top frequency); `None` otherwise.
+pub fn absorbed_lag(spec: &ModelSpec, r: &DataRange) -> Option<f64> {
+    let wn = spec.value("tracking_lowpass", AXES[0], "omega_n")?;
+    let zeta = spec.value("tracking_lowpass", AXES[0], "zeta")?;
+    let lag = 2.0 * zeta / wn - 2.0 * SEED_SERVO.1 / SEED_SERVO.0;
+    (lag > 0.1 / r.omega_max).then_some(lag)
 }
 
 /// The effect on every excited axis, each axis with its own free parameter (an axis without
@@ -547,5 +580,43 @@ mod tests {
         let fresh = acceleration_saturation(&plain, &r);
         assert_eq!(fresh.len(), 2);
         assert!(fresh.iter().all(|(_, f)| f.len() == 2));
+    }
+
+    /// A servo low-pass that lags more than the seed's may stand for a delay: the delay
+    /// candidate also starts from the seed's servo with the difference of the lags as the
+    /// delay, on each excited axis; a servo as fast as the seed's adds no start.
+    #[test]
+    fn a_slow_servo_gives_the_delay_a_start_from_the_seeds_servo() {
+        let r = range();
+        let with_servo = |wn: f64, zeta: f64| {
+            let mut s = paper_with_limits(1.0, 1.2);
+            for b in AXES {
+                s.set_value("tracking_lowpass", b, "omega_n", wn);
+                s.set_value("tracking_lowpass", b, "zeta", zeta);
+            }
+            s
+        };
+        // Held-out draw 1160027's loop: 13.17 rad/s, damping 0.509 (lag 77.3 ms against 66.7).
+        let slow = with_servo(13.17, 0.509);
+        let lag = absorbed_lag(&slow, &r).unwrap();
+        assert!((lag - (2.0 * 0.509 / 13.17 - 2.0 / 30.0)).abs() < 1e-12);
+        let plain = time_delay(&with_servo(30.0, 1.0), &r);
+        let starts = time_delay(&slow, &r);
+        assert_eq!(starts.len(), plain.len() + 1);
+        let (spec, frees) = starts.last().unwrap();
+        for b in AXES {
+            assert_eq!(spec.value("tracking_lowpass", b, "omega_n"), Some(30.0));
+            assert_eq!(spec.value("tracking_lowpass", b, "zeta"), Some(1.0));
+            assert_eq!(spec.value("time_delay", b, "delay"), Some(lag));
+        }
+        assert_eq!(frees.len(), 2);
+        // The seed's own servo, a faster one, and one lagging by less than the shortest start
+        // (0.1 rad at 15 rad/s: 6.7 ms) have none.
+        for (wn, zeta) in [(30.0, 1.0), (40.0, 0.8), (28.0, 1.0)] {
+            assert!(
+                absorbed_lag(&with_servo(wn, zeta), &r).is_none(),
+                "{wn} {zeta}"
+            );
+        }
     }
 }

@@ -18,6 +18,7 @@ use crate::campaign::Campaign;
 use crate::identify::{identify_with_progress, Identification, IdentifyError, IdentifyOptions};
 use zmp_models::ModelSpec;
 
+mod absorbed_delay;
 mod play_revision;
 mod typical;
 
@@ -219,6 +220,13 @@ fn run_loop_in_budget(
     if let Some(aug) = typical::refit(&current, &obs, opts, progress)? {
         current = aug.spec.clone();
         versions.push((Vec::new(), aug));
+    }
+    // A model without a delay whose servo low-pass lags more than the seed's: the delay it may
+    // have absorbed.
+    if let Some(aug) = absorbed_delay::look(&current, &found, &obs, opts, progress)? {
+        current = aug.spec.clone();
+        found.push("time_delay".to_string());
+        versions.push((vec!["time_delay".to_string()], aug));
     }
     let preds = predict(&current, &obs)?;
     let explained = explains(&obs, &preds);
