@@ -429,6 +429,15 @@ pub fn score_candidates(
     out
 }
 
+/// A model the loop already fitted, as it is: one joint fit of its parameters from their
+/// values, scored on held-out records (what a last look at it must beat; cheaper than
+/// [`control`]'s fits from every variant).
+pub fn score_as_it_is(spec: &ModelSpec, obs: &[&Observation]) -> Option<Scored> {
+    let frees = refit_frees(spec, &[]);
+    let fitted = fit_structure(spec, &frees, 0, obs)?;
+    Some(cross_validate("parameter_refit", fitted, obs))
+}
+
 /// The refit-only control: the model's own structure, every parameter refitted (from the
 /// low-pass variants), scored on held-out records.
 pub fn control(base: &ModelSpec, obs: &[&Observation]) -> Option<Scored> {

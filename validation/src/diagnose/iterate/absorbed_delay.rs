@@ -22,7 +22,7 @@
 
 use super::super::augment::{version_from_diagnosis, Augmented};
 use super::super::candidates::{absorbed_lag, DataRange, CATALOGUE};
-use super::super::engine::{self, cross_validate};
+use super::super::engine;
 use super::super::observe::Observation;
 use super::super::select::{gain, removes_most, MAX_EFFECTS};
 use super::super::DiagnoseOptions;
@@ -46,11 +46,9 @@ pub(super) fn look(
         return Ok(None);
     }
     progress("trying the delay a slow servo low-pass may have absorbed");
-    let frees = engine::refit_frees(current, &[]);
-    let Some(fitted) = engine::fit_structure(current, &frees, 0, obs) else {
+    let Some(now) = engine::score_as_it_is(current, obs) else {
         return Ok(None);
     };
-    let now = cross_validate("parameter_refit", fitted, obs);
     let Some(c) = CATALOGUE.iter().find(|c| c.effect == "time_delay") else {
         return Ok(None);
     };

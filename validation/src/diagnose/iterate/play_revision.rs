@@ -43,11 +43,9 @@ pub(super) fn revise(
     progress("judging the other effects again with the play inside its servo");
     // The model as it is (fitted by the loop: one joint fit from its values), scored
     // held-out: what a revision must beat.
-    let frees = engine::refit_frees(current, &[]);
-    let Some(fitted) = engine::fit_structure(current, &frees, 0, obs) else {
+    let Some(now) = engine::score_as_it_is(current, obs) else {
         return Ok(None);
     };
-    let now = cross_validate("parameter_refit", fitted, obs);
     // The same effects with the play inside its servo.
     let on_command = !plays_on_command(current).is_empty();
     let law = if !on_command {
