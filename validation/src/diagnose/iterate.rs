@@ -19,6 +19,7 @@ use crate::identify::{identify_with_progress, Identification, IdentifyError, Ide
 use zmp_models::ModelSpec;
 
 mod absorbed_delay;
+mod play_inside;
 mod play_revision;
 mod typical;
 
@@ -227,6 +228,13 @@ fn run_loop_in_budget(
         current = aug.spec.clone();
         found.push("time_delay".to_string());
         versions.push((vec!["time_delay".to_string()], aug));
+    }
+    // A model that leaves the data unexplained without a play: a play inside its servo, the
+    // law the search reaches only through a play on the command.
+    if let Some(aug) = play_inside::look(&current, &found, &obs, opts, progress)? {
+        current = aug.spec.clone();
+        found.push("backlash".to_string());
+        versions.push((vec!["backlash".to_string()], aug));
     }
     let preds = predict(&current, &obs)?;
     let explained = explains(&obs, &preds);

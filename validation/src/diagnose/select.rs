@@ -225,16 +225,21 @@ pub fn plausible(children: Vec<Scored>, parent: &Scored, obs: &[&Observation]) -
     if !children.iter().any(|c| amplitude_law(&c.effect)) {
         return children;
     }
-    let shown = predict(&parent.fitted.spec, obs)
-        .ok()
-        .and_then(|p| {
-            amplitude_dependence_shown(&amplitude_dependence(obs, &p, &parent.fitted.spec))
-        })
-        .unwrap_or(true);
+    let shown = amplitude_shown(&parent.fitted.spec, obs);
     children
         .into_iter()
         .filter(|c| shown || !amplitude_law(&c.effect))
         .collect()
+}
+
+/// Whether the measurements show, against `spec`'s predictions, the small amplitudes
+/// responding less or later than the large ones (`AmplitudeDependence::shown` on any axis);
+/// true when the campaign has no records that differ only in amplitude (nothing can tell).
+pub fn amplitude_shown(spec: &ModelSpec, obs: &[&Observation]) -> bool {
+    predict(spec, obs)
+        .ok()
+        .and_then(|p| amplitude_dependence_shown(&amplitude_dependence(obs, &p, spec)))
+        .unwrap_or(true)
 }
 
 /// One step of the search: the structure after it and the effects it added (one, or two for
