@@ -128,8 +128,11 @@ use zmp_validation::par::parallel_map;
 /// coupling 6/6, pairs 8/12, triples 3/3, clean 10/10, outside 3/8, closed 48/52, false effect
 /// 6/52; then examined: 1170010, a lone play in a soft transmission whose small sines respond
 /// more than the large ones, which only the play inside the servo fits and the search never
-/// tries, and 1170031, unchanged by this round's code; nothing changed).
-const HELD_OUT_FIRST_SEED: u64 = 1_180_000;
+/// tries, and 1170031, unchanged by this round's code; which led to the loop's last look with
+/// the play inside the servo); from 1180000 (run once on the code of d152f2a, that look in:
+/// singles 20/21, saturation and coupling 6/6, pairs 7/12, triples 2/3, clean 10/10, outside
+/// 3/8, closed 50/52, false effect 4/52).
+const HELD_OUT_FIRST_SEED: u64 = 1_190_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
