@@ -20,7 +20,9 @@
 //! with delays of 46-49 ms standing in for it (2.20x the floor). And where the servo low-pass
 //! lags more than the seed's, one start moves that extra lag to the delays: spent held-out draw
 //! 1160041 (a mode per plane, a 75 ms delay, drift) ended at 2.18x with the servo at 16.6 rad/s
-//! and delays of 16-17 ms. The tolerances below were set after seeing these draws' runs.
+//! and delays of 16-17 ms. And it starts each mode at the sweep's frequencies and their middles,
+//! under the model's law and inside the servo: spent held-out draw 1180004's lightly damped link
+//! between two sweep frequencies. The tolerances below were set after seeing these draws' runs.
 
 #[path = "support/indep_loop.rs"]
 mod indep_loop;
@@ -117,6 +119,37 @@ fn the_lag_a_slow_servo_took_from_the_delay_goes_back_to_it() {
     );
     // The x mode inside the sweep within 5 %, the y one above it within 10 %.
     for (k, tol) in [(0, 0.05), (1, 0.1)] {
+        let b = Binding::Axis([Axis::X, Axis::Y][k]);
+        let want = robot.axes[k].modes[0].omega;
+        let got = mode_frequency(&r.final_model, b).expect("a mode on each axis");
+        assert!(
+            (got - want).abs() <= tol * want,
+            "axis {k}: mode at {got:.2} rad/s against the drawn {want:.2}"
+        );
+    }
+}
+
+/// Spent held-out draw 1180004 (examined after its range): a link per plane, at 25.0 and
+/// 12.5 rad/s with damping 0.08 and 0.03, the second between the sweep's 9.8 and 15 rad/s.
+/// The loop ended unexplained at 15.4x the floor with the y link at 15.7 rad/s, its damping at
+/// the floor; the refit's starts at the sweep's frequencies and their middles, under both laws
+/// (`iterate::typical`), reach 0.94x with the links at 24.8 and 12.52 rad/s inside the servo.
+/// Tolerances set after its run.
+#[test]
+fn a_lightly_damped_link_between_two_sweep_frequencies_is_refitted_at_its_own() {
+    let (r, robot) = loop_and_robot(1_180_004, "single:structural_mode");
+    assert_eq!(r.found, ["structural_mode"]);
+    assert!(
+        r.versions.iter().any(|(_, v)| v.change == TYPICAL_REFIT),
+        "no {TYPICAL_REFIT} version"
+    );
+    assert!(
+        r.explained && r.final_error <= 1.0 * r.noise_floor,
+        "explained {}, final {:.2}x the floor",
+        r.explained,
+        r.final_error / r.noise_floor
+    );
+    for (k, tol) in [(0, 0.03), (1, 0.01)] {
         let b = Binding::Axis([Axis::X, Axis::Y][k]);
         let want = robot.axes[k].modes[0].omega;
         let got = mode_frequency(&r.final_model, b).expect("a mode on each axis");
