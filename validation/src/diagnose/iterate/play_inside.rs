@@ -16,7 +16,7 @@
 //! look: one law tried on the evidence that nothing else explained the data, not the best of
 //! the whole catalogue). On 1170010 it removes 90 % (38094 -> 4679) and ends at 1.46x, the
 //! plays fitted at 0.45 and 0.40 mm. The look is gated as the search gates an amplitude law
-//! (below), and only unexplained models pay for its fit (4-40 s on one thread).
+//! (below), and only unexplained models pay for its fit (4-40 s on the draws above).
 
 use super::super::augment::{version_from_diagnosis, Augmented};
 use super::super::candidates::{play_in_servo_starts, DataRange, CATALOGUE};
