@@ -17,8 +17,7 @@
 #[path = "support/indep_loop.rs"]
 mod indep_loop;
 
-use indep_loop::{loop_and_robot, mode_frequency};
-use zmp_models::{Axis, Binding};
+use indep_loop::{assert_modes_within, loop_and_robot};
 
 /// The loop names a structural mode and nothing else, ends explained within the noise floor,
 /// and puts on each axis a mode within `tol` (relative) of the drawn one.
@@ -35,16 +34,7 @@ fn check(seed: u64, tol: f64) {
         r.explained,
         r.final_error / r.noise_floor
     );
-    for (k, axis) in robot.axes.iter().enumerate() {
-        let b = Binding::Axis([Axis::X, Axis::Y][k]);
-        let want = axis.modes[0].omega;
-        let got = mode_frequency(&r.final_model, b)
-            .unwrap_or_else(|| panic!("draw {seed}: no mode on axis {k}"));
-        assert!(
-            (got - want).abs() <= tol * want,
-            "draw {seed}, axis {k}: mode at {got:.2} rad/s against the drawn {want:.2}"
-        );
-    }
+    assert_modes_within(&r, &robot, [tol, tol], seed);
 }
 
 #[test]

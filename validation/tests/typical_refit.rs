@@ -27,7 +27,7 @@
 #[path = "support/indep_loop.rs"]
 mod indep_loop;
 
-use indep_loop::{loop_and_robot, mode_frequency};
+use indep_loop::{assert_modes_within, loop_and_robot};
 use zmp_models::{Axis, Binding};
 use zmp_validation::diagnose::iterate::TYPICAL_REFIT;
 
@@ -59,16 +59,7 @@ fn check(
         r.explained,
         r.final_error / r.noise_floor
     );
-    for (k, axis) in robot.axes.iter().enumerate() {
-        let b = Binding::Axis([Axis::X, Axis::Y][k]);
-        let want = axis.modes[0].omega;
-        let got = mode_frequency(&r.final_model, b)
-            .unwrap_or_else(|| panic!("draw {seed}: no mode on axis {k}"));
-        assert!(
-            (got - want).abs() <= 0.1 * want,
-            "draw {seed}, axis {k}: mode at {got:.2} rad/s against the drawn {want:.2}"
-        );
-    }
+    assert_modes_within(&r, &robot, [0.1, 0.1], seed);
     (r, robot)
 }
 
@@ -118,15 +109,7 @@ fn the_lag_a_slow_servo_took_from_the_delay_goes_back_to_it() {
         r.final_error / r.noise_floor
     );
     // The x mode inside the sweep within 5 %, the y one above it within 10 %.
-    for (k, tol) in [(0, 0.05), (1, 0.1)] {
-        let b = Binding::Axis([Axis::X, Axis::Y][k]);
-        let want = robot.axes[k].modes[0].omega;
-        let got = mode_frequency(&r.final_model, b).expect("a mode on each axis");
-        assert!(
-            (got - want).abs() <= tol * want,
-            "axis {k}: mode at {got:.2} rad/s against the drawn {want:.2}"
-        );
-    }
+    assert_modes_within(&r, &robot, [0.05, 0.1], 1_160_041);
 }
 
 /// Spent held-out draw 1180004 (examined after its range): a link per plane, at 25.0 and
@@ -149,13 +132,5 @@ fn a_lightly_damped_link_between_two_sweep_frequencies_is_refitted_at_its_own() 
         r.explained,
         r.final_error / r.noise_floor
     );
-    for (k, tol) in [(0, 0.03), (1, 0.01)] {
-        let b = Binding::Axis([Axis::X, Axis::Y][k]);
-        let want = robot.axes[k].modes[0].omega;
-        let got = mode_frequency(&r.final_model, b).expect("a mode on each axis");
-        assert!(
-            (got - want).abs() <= tol * want,
-            "axis {k}: mode at {got:.2} rad/s against the drawn {want:.2}"
-        );
-    }
+    assert_modes_within(&r, &robot, [0.03, 0.01], 1_180_004);
 }

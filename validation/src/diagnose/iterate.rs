@@ -12,7 +12,7 @@ use super::engine::{self, evaluate};
 use super::measure::{aggregate, chi2_total, components, predict, score, Prediction};
 use super::observe::Observation;
 use super::run::{diagnose_observations, explains, observations_of, DiagnoseError, Diagnosis};
-use super::select::{removes_most, CHI2_MIN, MAX_EFFECTS};
+use super::select::{gain, removes_most, CHI2_MIN, MAX_EFFECTS};
 use super::DiagnoseOptions;
 use crate::campaign::Campaign;
 use crate::identify::{identify_with_progress, Identification, IdentifyError, IdentifyOptions};
@@ -370,6 +370,38 @@ fn readd(
         parent = child;
     }
     Ok(out)
+}
+
+/// A last look's verdict on one effect tried on evidence of its own: `child` (`current` with
+/// its effect added, scored held-out; `what` names it in the progress line) is reported
+/// against `now` (`current` as it is) and becomes the version `+EFFECT` when it passes the search's test and removes at least half of the
+/// excess held-out chi-square ([`removes_most`]: the test past "explained", without its noise
+/// gate).
+fn keep_if_removes_most(
+    what: &str,
+    now: &engine::Scored,
+    child: &engine::Scored,
+    current: &ModelSpec,
+    obs: &[&Observation],
+    opts: &DiagnoseOptions,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<Option<Augmented>, LoopError> {
+    progress(&format!(
+        "{what} removes {:.0} % of the excess held-out chi-square ({:.0} -> {:.0})",
+        100.0 * gain(now, child).total_fraction,
+        now.chi2,
+        child.chi2,
+    ));
+    if !removes_most(now, child) {
+        return Ok(None);
+    }
+    Ok(Some(version_from_diagnosis(
+        obs,
+        current,
+        &child.fitted,
+        &format!("+{}", child.effect),
+        opts,
+    )?))
 }
 
 /// The version with `fitted` (the same effects as `current`, one of them under another law)

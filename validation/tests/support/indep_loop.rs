@@ -64,6 +64,23 @@ pub fn mode_frequency(m: &zmp_models::ModelSpec, b: zmp_models::Binding) -> Opti
         .or_else(|| m.value("structural_mode", b, "omega_n"))
 }
 
+/// Asserts that each plane's mode of the loop's final model lies within `tol[k]` (relative)
+/// of the drawn robot's first mode on that axis.
+#[allow(dead_code)]
+pub fn assert_modes_within(r: &LoopResult, robot: &Robot, tol: [f64; 2], seed: u64) {
+    use zmp_models::{Axis, Binding};
+    for (k, axis) in robot.axes.iter().enumerate() {
+        let b = Binding::Axis([Axis::X, Axis::Y][k]);
+        let want = axis.modes[0].omega;
+        let got = mode_frequency(&r.final_model, b)
+            .unwrap_or_else(|| panic!("draw {seed}: no mode on axis {k}"));
+        assert!(
+            (got - want).abs() <= tol[k] * want,
+            "draw {seed}, axis {k}: mode at {got:.2} rad/s against the drawn {want:.2}"
+        );
+    }
+}
+
 /// A draw of the independent simulator written as a campaign and read back.
 #[allow(dead_code)]
 pub struct Drawn {

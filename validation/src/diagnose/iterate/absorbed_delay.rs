@@ -20,13 +20,13 @@
 //! effect is tried, on the evidence of the servo's lag. On 1160027 it removes 67 %
 //! (held-out chi-square 1445 -> 875 over 936 components).
 
-use super::super::augment::{version_from_diagnosis, Augmented};
+use super::super::augment::Augmented;
 use super::super::candidates::{absorbed_lag, DataRange, CATALOGUE};
 use super::super::engine;
 use super::super::observe::Observation;
-use super::super::select::{gain, removes_most, MAX_EFFECTS};
+use super::super::select::MAX_EFFECTS;
 use super::super::DiagnoseOptions;
-use super::LoopError;
+use super::{keep_if_removes_most, LoopError};
 use zmp_models::ModelSpec;
 
 /// The model with the delay its low-pass absorbed, when it has none and the delay passes (see
@@ -55,20 +55,5 @@ pub(super) fn look(
     let Some(child) = engine::score_candidate(c, current, obs) else {
         return Ok(None);
     };
-    progress(&format!(
-        "the delay removes {:.0} % of the excess held-out chi-square ({:.0} -> {:.0})",
-        100.0 * gain(&now, &child).total_fraction,
-        now.chi2,
-        child.chi2,
-    ));
-    if !removes_most(&now, &child) {
-        return Ok(None);
-    }
-    Ok(Some(version_from_diagnosis(
-        obs,
-        current,
-        &child.fitted,
-        "+time_delay",
-        opts,
-    )?))
+    keep_if_removes_most("the delay", &now, &child, current, obs, opts, progress)
 }

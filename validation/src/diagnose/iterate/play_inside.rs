@@ -18,19 +18,16 @@
 //! plays fitted at 0.45 and 0.40 mm. The look is gated as the search gates an amplitude law
 //! (below), and only unexplained models pay for its fit (4-40 s on the draws above).
 
-use super::super::augment::{version_from_diagnosis, Augmented};
+use super::super::augment::Augmented;
 use super::super::candidates::{play_in_servo_starts, DataRange, CATALOGUE};
 use super::super::engine;
 use super::super::measure::predict;
 use super::super::observe::Observation;
 use super::super::run::explains;
-use super::super::select::{amplitude_shown, gain, removes_most, MAX_EFFECTS};
+use super::super::select::{amplitude_shown, MAX_EFFECTS};
 use super::super::DiagnoseOptions;
-use super::LoopError;
+use super::{keep_if_removes_most, LoopError};
 use zmp_models::ModelSpec;
-
-/// The change label of the version this look writes.
-pub const PLAY_INSIDE: &str = "+backlash";
 
 /// The model with a play inside its servo, when `current` leaves the data unexplained, has
 /// no play and the play passes (see the module's documentation).
@@ -77,20 +74,13 @@ pub(super) fn look(
         return Ok(None);
     };
     let child = engine::cross_validate("backlash", fitted, obs);
-    progress(&format!(
-        "the play inside the servo removes {:.0} % of the excess held-out chi-square ({:.0} -> {:.0})",
-        100.0 * gain(&now, &child).total_fraction,
-        now.chi2,
-        child.chi2,
-    ));
-    if !removes_most(&now, &child) {
-        return Ok(None);
-    }
-    Ok(Some(version_from_diagnosis(
-        obs,
+    keep_if_removes_most(
+        "the play inside the servo",
+        &now,
+        &child,
         current,
-        &child.fitted,
-        PLAY_INSIDE,
+        obs,
         opts,
-    )?))
+        progress,
+    )
 }

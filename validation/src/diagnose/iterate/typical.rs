@@ -109,8 +109,7 @@ fn lag_to_delays(current: &ModelSpec, r: &DataRange) -> Option<ModelSpec> {
 /// y link at 15.7 rad/s and its damping at the floor; from the identified model with links
 /// inside the servo, the y link started at 15.9 rad/s stays at 1469 per component, at
 /// 9.4 rad/s at 6830, at the middle of 9.8 and 15, 12.1 rad/s, reaches 1.12.
-fn band_starts(start: &ModelSpec, obs: &[&Observation]) -> Vec<ModelSpec> {
-    let r = DataRange::of(obs);
+fn band_starts(start: &ModelSpec, obs: &[&Observation], r: &DataRange) -> Vec<ModelSpec> {
     let mut freqs: Vec<f64> = obs
         .iter()
         .map(|o| o.omega)
@@ -160,7 +159,7 @@ pub(super) fn refit(
     }
     let in_band = starts
         .first()
-        .map(|s| band_starts(s, obs))
+        .map(|s| band_starts(s, obs, &r))
         .unwrap_or_default();
     starts = moved_starts(starts, &r);
     starts.extend(in_band);
