@@ -243,6 +243,27 @@ pub trait Effect: Send + Sync + fmt::Debug {
         demand
     }
 
+    /// Servo effects that change the servo's motion: a copy to run in one servo simulation
+    /// with the axis's other servo effects, and what names it in the describing-function
+    /// cache ([`crate::effects::servo::joint_servo_harmonics`]). `None` for every other effect.
+    fn servo_part(&self) -> Option<crate::effects::servo::ServoPart> {
+        None
+    }
+
+    /// Servo effects: whether the effect leaves the servo's periodic motion untouched for a
+    /// reference `amplitude sin(omega t)` when the axis's other servo effects add at most
+    /// `extra` (m/s²) to the force the servo demands (a saturation whose limit that force
+    /// never reaches). `false` when it may act.
+    fn servo_idle(&self, _omega: f64, _amplitude: f64, _extra: f64) -> bool {
+        false
+    }
+
+    /// Servo effects: the most the effect adds to the force the servo must demand (m/s²; a
+    /// friction's level), 0 for none.
+    fn servo_force_bound(&self) -> f64 {
+        0.0
+    }
+
     /// Servo effects: the steepest slope of the acceleration they remove against velocity,
     /// 1/s (0 for none). The servo's RK4 takes sub-steps short enough for it, so a stiff
     /// effect is integrated stably at any plant step.

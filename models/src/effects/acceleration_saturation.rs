@@ -11,7 +11,7 @@
 //! sines further than the clamp alone (`c = 0`, the seed's law).
 
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
-use crate::effects::servo::servo_harmonics;
+use crate::effects::servo::{servo_harmonics, ServoPart};
 use crate::effects::servo_link::{joint_response, TrunkLink};
 use num_complex::Complex64;
 
@@ -61,11 +61,7 @@ impl AccelerationSaturation {
         // The linear servo's steady force (demand plus passive damping) for the joint's
         // response X_J (H on a rigid trunk): while its amplitude stays below the limit the
         // periodic state is the linear one.
-        let (wn, zeta) = self.servo;
-        let xj = joint_response(self.link, wn, zeta, omega);
-        let jw = Complex64::new(0.0, omega);
-        let force = wn * wn * (1.0 - xj) + jw * (self.passive_damping - 2.0 * zeta * wn) * xj;
-        if force.norm() * amplitude <= 0.999 * self.limit {
+        if self.servo_idle(omega, amplitude, 0.0) {
             return (Complex64::new(1.0, 0.0), Complex64::new(0.0, 0.0));
         }
         let mut limits: [Box<dyn Effect>; 1] = [Box::new(self.clone())];
@@ -84,6 +80,25 @@ impl AccelerationSaturation {
 impl Effect for AccelerationSaturation {
     fn info(&self) -> &'static EffectInfo {
         &INFO
+    }
+    fn servo_part(&self) -> Option<ServoPart> {
+        Some(ServoPart {
+            effect: Box::new(self.clone()),
+            servo: self.servo,
+            h: self.h,
+            link: self.link,
+            identity: [2.0, self.limit, self.passive_damping],
+        })
+    }
+    /// The linear servo's steady force (demand plus passive damping) for the joint's response
+    /// X_J (H on a rigid trunk), with `extra` on top, stays below the limit: the periodic state
+    /// is then the one without the saturation.
+    fn servo_idle(&self, omega: f64, amplitude: f64, extra: f64) -> bool {
+        let (wn, zeta) = self.servo;
+        let xj = joint_response(self.link, wn, zeta, omega);
+        let jw = Complex64::new(0.0, omega);
+        let force = wn * wn * (1.0 - xj) + jw * (self.passive_damping - 2.0 * zeta * wn) * xj;
+        force.norm() * amplitude + extra <= 0.999 * self.limit
     }
     fn frequency_response(&self, omega: f64, amplitude: f64) -> Complex64 {
         self.servo_harmonics(omega, amplitude).0

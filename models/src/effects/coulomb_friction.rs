@@ -7,7 +7,7 @@
 //! motions lag and shrink, large ones barely notice.
 
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
-use crate::effects::servo::servo_harmonics;
+use crate::effects::servo::{servo_harmonics, ServoPart};
 use crate::effects::servo_link::TrunkLink;
 use num_complex::Complex64;
 
@@ -88,6 +88,18 @@ impl CoulombFriction {
 impl Effect for CoulombFriction {
     fn info(&self) -> &'static EffectInfo {
         &INFO
+    }
+    fn servo_part(&self) -> Option<ServoPart> {
+        Some(ServoPart {
+            effect: Box::new(self.clone()),
+            servo: self.servo,
+            h: self.h,
+            link: self.link,
+            identity: [1.0, self.level, self.v_s],
+        })
+    }
+    fn servo_force_bound(&self) -> f64 {
+        self.level
     }
     fn frequency_response(&self, omega: f64, amplitude: f64) -> Complex64 {
         self.servo_harmonics(omega, amplitude).0

@@ -18,7 +18,10 @@ mod describing_function;
 mod linked;
 mod step;
 
-pub use describing_function::{clear_describing_function_cache, play_harmonics, servo_harmonics};
+pub use describing_function::{
+    clear_describing_function_cache, joint_servo_harmonics, play_harmonics, servo_harmonics,
+    ServoPart,
+};
 use step::substeps_for;
 pub(crate) use step::SUBSTEP_STIFFNESS;
 pub use step::{max_step, MAX_SUBSTEPS};

@@ -83,7 +83,16 @@ impl Plant {
         let mut servo3 = zero;
         // The reference the servo follows (after the command effects).
         let reference = g;
-        if amplitude.is_some() {
+        let joint = match amplitude {
+            Some(_) => joint_servo(&self.servo_limits[j], omega, amp),
+            None => None,
+        };
+        if let Some((n, h3)) = joint {
+            if third {
+                servo3 += own(h3, reference, amp);
+            }
+            g *= n;
+        } else if amplitude.is_some() {
             for e in &self.servo_limits[j] {
                 if third {
                     let (n, h3) = e.harmonics(omega, amp);
@@ -178,4 +187,33 @@ impl Plant {
         }
         tau
     }
+}
+
+/// The describing function and third harmonic of an axis's servo effects simulated together,
+/// when two of them act at `omega` and `amplitude` (a friction in a servo whose force limit
+/// clips: see [`crate::effects::servo::joint_servo_harmonics`]); `None` when at most one
+/// acts, whose own describing function is then exact (the others' is 1). A saturation is
+/// counted as acting unless the linear servo's force plus twice what the others may add stays
+/// below its limit (the margin covers the friction's distortion of the demanded force).
+fn joint_servo(
+    limits: &[Box<dyn Effect>],
+    omega: f64,
+    amplitude: f64,
+) -> Option<(Complex64, Complex64)> {
+    if limits.len() < 2 {
+        return None;
+    }
+    let extra: f64 = limits.iter().map(|e| e.servo_force_bound()).sum();
+    let acting: Vec<&Box<dyn Effect>> = limits
+        .iter()
+        .filter(|e| !e.servo_idle(omega, amplitude, 2.0 * (extra - e.servo_force_bound())))
+        .collect();
+    if acting.len() < 2 {
+        return None;
+    }
+    let parts = acting
+        .iter()
+        .map(|e| e.servo_part())
+        .collect::<Option<Vec<_>>>()?;
+    crate::effects::servo::joint_servo_harmonics(parts, omega, amplitude)
 }

@@ -10,14 +10,14 @@ use num_complex::Complex64;
 /// Describing functions already computed, by their exact inputs: fits evaluate the same servo
 /// at the same frequencies and amplitudes many times (once per output, per operating point,
 /// per Jacobian column of a parameter the servo ignores).
-static DF_CACHE: Memo<[u64; 14], Harmonics> = Memo::new(200_000);
+static DF_CACHE: Memo<[u64; 17], Harmonics> = Memo::new(200_000);
 
 /// Forgets every cached describing function (a new campaign or a timed run starts afresh).
 pub fn clear_describing_function_cache() {
     DF_CACHE.clear();
 }
 
-fn cached(key: [f64; 14], compute: impl FnOnce() -> Harmonics) -> Harmonics {
+fn cached(key: [f64; 17], compute: impl FnOnce() -> Harmonics) -> Harmonics {
     DF_CACHE.get_or(key.map(f64::to_bits), compute)
 }
 
@@ -28,7 +28,7 @@ fn run_cached(
     h: f64,
     link: Option<TrunkLink>,
     limits: &mut [Box<dyn Effect>],
-    identity: [f64; 3],
+    identity: [f64; 6],
     omega: f64,
     amplitude: f64,
 ) -> Harmonics {
@@ -45,6 +45,9 @@ fn run_cached(
             identity[0],
             identity[1],
             identity[2],
+            identity[3],
+            identity[4],
+            identity[5],
             l[0],
             l[1],
             l[2],
@@ -82,6 +85,75 @@ pub fn servo_harmonics(
     omega: f64,
     amplitude: f64,
 ) -> (Complex64, Complex64) {
+    let [a, b, c] = identity;
+    ratio(
+        servo,
+        h,
+        link,
+        limits,
+        [a, b, c, 0.0, 0.0, 0.0],
+        omega,
+        amplitude,
+    )
+}
+
+/// What one servo effect brings to a servo simulation shared with the axis's other servo
+/// effects ([`joint_servo_harmonics`]): a copy of it to run, the servo it acts in and its
+/// identity (kind and parameters) for the cache.
+#[derive(Debug)]
+pub struct ServoPart {
+    pub effect: Box<dyn Effect>,
+    pub servo: (f64, f64),
+    pub h: f64,
+    pub link: Option<TrunkLink>,
+    pub identity: [f64; 3],
+}
+
+/// The describing function and third harmonic of two servo effects acting together (a
+/// friction in a servo that saturates): one servo simulation with both, over the linear
+/// servo's, as [`servo_harmonics`] gives them for one. The product of their own describing
+/// functions is only a first-order approximation: where the force limit clips, the friction
+/// takes its share of a force that no longer grows with the demand. On the independent
+/// simulator's held-out draw 1180037 (a friction of 0.089 m/s² in a servo limited to
+/// 1.11 m/s²), the model with the drawn values was 14 500 chi-square per record off on the
+/// three most saturated records with the product and within the noise elsewhere. `None` when
+/// the parts do not share one servo or there are not two.
+pub fn joint_servo_harmonics(
+    mut parts: Vec<ServoPart>,
+    omega: f64,
+    amplitude: f64,
+) -> Option<(Complex64, Complex64)> {
+    if parts.len() != 2 {
+        return None;
+    }
+    let (servo, h, link) = (parts[0].servo, parts[0].h, parts[0].link);
+    if parts[1].servo != servo || parts[1].h != h || parts[1].link != link {
+        return None;
+    }
+    let [a, b, c] = parts[0].identity;
+    let [d, e, f] = parts[1].identity;
+    let mut limits: Vec<Box<dyn Effect>> = parts.drain(..).map(|p| p.effect).collect();
+    Some(ratio(
+        servo,
+        h,
+        link,
+        &mut limits,
+        [a, b, c, d, e, f],
+        omega,
+        amplitude,
+    ))
+}
+
+/// [`servo_harmonics`] with the identity of up to two effects.
+fn ratio(
+    servo: (f64, f64),
+    h: f64,
+    link: Option<TrunkLink>,
+    limits: &mut [Box<dyn Effect>],
+    identity: [f64; 6],
+    omega: f64,
+    amplitude: f64,
+) -> (Complex64, Complex64) {
     let with = run_cached(servo, h, link, limits, identity, omega, amplitude);
     let play = link.is_some_and(|l| l.half_play > 0.0);
     // The linear servo's response does not depend on the amplitude (run at 1); a play's does.
@@ -90,7 +162,7 @@ pub fn servo_harmonics(
         h,
         link,
         &mut [],
-        [0.0; 3],
+        [0.0; 6],
         omega,
         if play { amplitude } else { 1.0 },
     );
@@ -113,7 +185,7 @@ pub fn play_harmonics(
     omega: f64,
     amplitude: f64,
 ) -> (Complex64, Complex64) {
-    let with = run_cached(servo, h, Some(link), &mut [], [0.0; 3], omega, amplitude);
-    let rigid = run_cached(servo, h, None, &mut [], [0.0; 3], omega, 1.0);
+    let with = run_cached(servo, h, Some(link), &mut [], [0.0; 6], omega, amplitude);
+    let rigid = run_cached(servo, h, None, &mut [], [0.0; 6], omega, 1.0);
     (with.first / rigid.first, with.third)
 }
