@@ -19,6 +19,7 @@ use crate::identify::{identify_with_progress, Identification, IdentifyError, Ide
 use zmp_models::ModelSpec;
 
 mod absorbed_delay;
+mod amplitude_swap;
 mod play_inside;
 mod play_revision;
 mod typical;
@@ -211,6 +212,13 @@ fn run_loop_in_budget(
     // The effects named beside a play, judged again with the play inside its servo.
     if let Some((names, added, aug)) =
         play_revision::revise(&current, &found, &obs, opts, progress)?
+    {
+        current = aug.spec.clone();
+        found = names;
+        versions.push((vec![added], aug));
+    }
+    // A model with a play or a friction: the other amplitude law in its place.
+    if let Some((names, added, aug)) = amplitude_swap::look(&current, &found, &obs, opts, progress)?
     {
         current = aug.spec.clone();
         found = names;

@@ -10,12 +10,15 @@ pub struct Bounded {
     pub max: f64,
 }
 
-/// Minimises `|r(theta)|^2`. `r` returns `None` for parameters it cannot evaluate (treated as
-/// a failed step). Returns the best parameters, the final cost and the Gauss-Newton covariance
-/// diagonal `(J^T J)^{-1}` scaled by the residual variance.
+/// Minimises `|r(theta)|^2` in at most `max_iter` iterations, and up to `extra` more while the
+/// cost still falls by more than 1 % over [`DESCENT_WINDOW`] iterations (a fit in a long
+/// curved valley descends steadily but slowly). `r` returns `None` for parameters it cannot
+/// evaluate (treated as a failed step). Returns the best parameters, the final cost and the
+/// Gauss-Newton covariance diagonal `(J^T J)^{-1}` scaled by the residual variance.
 pub fn minimise(
     theta0: &[Bounded],
     max_iter: usize,
+    extra: usize,
     r: &mut dyn FnMut(&[f64]) -> Option<Vec<f64>>,
 ) -> Option<(Vec<f64>, f64, Vec<f64>)> {
     let n = theta0.len();
@@ -30,7 +33,12 @@ pub fn minimise(
     let mut cost: f64 = res.iter().map(|x| x * x).sum();
     let mut lambda = 1e-3;
     let mut jtj = DMatrix::<f64>::zeros(n, n);
-    for _ in 0..max_iter {
+    // The cost after each iteration, for the descent past `max_iter`.
+    let mut costs = vec![cost];
+    for iter in 0..max_iter + extra {
+        if iter >= max_iter && !still_descending(&costs) {
+            break;
+        }
         let m = res.len();
         let mut jac = DMatrix::<f64>::zeros(m, n);
         for k in 0..n {
@@ -80,8 +88,19 @@ pub fn minimise(
         if !improved {
             break;
         }
+        costs.push(cost);
     }
     Some(finish(theta, cost, &jtj, res.len()))
+}
+
+/// Iterations over which [`still_descending`] measures the descent.
+pub const DESCENT_WINDOW: usize = 5;
+
+/// Whether the cost (after each iteration, `costs`) fell by more than 1 % over the last
+/// [`DESCENT_WINDOW`] iterations.
+fn still_descending(costs: &[f64]) -> bool {
+    let done = costs.len() - 1;
+    done >= DESCENT_WINDOW && costs[done - DESCENT_WINDOW] > 1.01 * costs[done]
 }
 
 fn finish(theta: Vec<f64>, cost: f64, jtj: &DMatrix<f64>, m: usize) -> (Vec<f64>, f64, Vec<f64>) {
@@ -125,6 +144,7 @@ mod tests {
                 },
             ],
             100,
+            0,
             &mut r,
         )
         .unwrap();
@@ -142,9 +162,61 @@ mod tests {
                 max: 1.0,
             }],
             50,
+            0,
             &mut r,
         )
         .unwrap();
         assert_eq!(p[0], 1.0);
+    }
+
+    /// The exponential of `fits_an_exponential` from a far start, in `max_iter` iterations and
+    /// up to `extra` more while it descends.
+    fn far_exponential(max_iter: usize, extra: usize) -> f64 {
+        let t: Vec<f64> = (0..50).map(|k| k as f64 * 0.1).collect();
+        let y: Vec<f64> = t.iter().map(|t| 2.0 * (-1.3 * t).exp()).collect();
+        let mut r = |p: &[f64]| {
+            Some(
+                t.iter()
+                    .zip(&y)
+                    .map(|(t, y)| p[0] * (-p[1] * t).exp() - y)
+                    .collect(),
+            )
+        };
+        let b = |value| Bounded {
+            value,
+            min: 0.0,
+            max: 10.0,
+        };
+        minimise(&[b(0.2), b(3.0)], max_iter, extra, &mut r)
+            .unwrap()
+            .1
+    }
+
+    #[test]
+    fn goes_on_while_descending() {
+        // Five iterations leave it at 0.49; the descent goes on to the exact fit.
+        let short = far_exponential(5, 0);
+        let long = far_exponential(5, 100);
+        assert!(short > 0.1, "5 iterations already at {short}");
+        assert!(long < 1e-16, "still at {long} with the descent allowed");
+    }
+
+    #[test]
+    fn stops_where_nothing_is_left_to_descend() {
+        // Started at the minimum: the extra iterations are not used.
+        let mut calls = [0; 2];
+        for (k, extra) in [0, 200].into_iter().enumerate() {
+            let mut r = |p: &[f64]| {
+                calls[k] += 1;
+                Some(vec![p[0] - 1.0, 2.0 * (p[1] + 0.5)])
+            };
+            let b = |value| Bounded {
+                value,
+                min: -5.0,
+                max: 5.0,
+            };
+            minimise(&[b(1.0), b(-0.5)], 3, extra, &mut r).unwrap();
+        }
+        assert_eq!(calls[0], calls[1]);
     }
 }

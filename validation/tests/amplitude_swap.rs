@@ -1,0 +1,60 @@
+//! Friction or play: the loop's look at the other amplitude law (`iterate::amplitude_swap`),
+//! on data this project did not make (`zmp-indep-sim`, no physics code shared with
+//! `zmp-models`).
+//!
+//! To first order a friction in a servo and a play are one law (a dead band of about
+//! `2 F / wn^2`), and the search compares a friction in the servo with a play on the command.
+//! The look fits the other law in place of the one named (a play also inside its servo), both
+//! fitted on while they descend, and keeps the better by the search's swap rule.
+
+#[path = "support/indep_loop.rs"]
+mod indep_loop;
+
+use indep_loop::loop_and_robot;
+use zmp_models::{Axis, Binding};
+
+/// Development seed 20, a lone play: the search named a friction (1.07x the noise floor); the
+/// play inside its servo fits far better (held-out chi-square 788 against 2685).
+#[test]
+fn a_play_named_friction_is_given_back_its_play() {
+    let r = indep_loop::loop_on(20, "single:backlash");
+    assert_eq!(r.found, ["backlash"]);
+    assert!(!r.final_model.has("coulomb_friction"));
+    // Tolerance set after its run (0.53x; the friction left 1.07x).
+    assert!(
+        r.final_error <= 0.8 * r.noise_floor,
+        "final {:.2}x the floor",
+        r.final_error / r.noise_floor
+    );
+}
+
+/// Spent held-out draw 1180029 (examined after its range): frictions of 0.17 and 0.25 m/s²
+/// beside a sensor low-pass at 16 and 19 rad/s, in a servo that saturates. The search named a
+/// play on the command beside the low-pass; the friction, fitted on, replaces it, with its
+/// levels near the drawn ones.
+#[test]
+fn a_friction_named_play_beside_a_low_pass_is_named_friction() {
+    let (r, robot) = loop_and_robot(1_180_029, "pair:coulomb_friction,sensor_lowpass");
+    let mut found = r.found.clone();
+    found.sort();
+    assert_eq!(found, ["coulomb_friction", "sensor_lowpass"]);
+    assert!(!r.final_model.has("backlash"));
+    assert!(
+        r.final_error <= 2.0 * r.noise_floor,
+        "final {:.2}x the floor",
+        r.final_error / r.noise_floor
+    );
+    let bindings = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
+    for (k, axis) in robot.axes.iter().enumerate() {
+        let level = r
+            .final_model
+            .value("coulomb_friction", bindings[k], "level")
+            .expect("a friction");
+        let drawn = axis.friction.as_ref().expect("a drawn friction").kinetic;
+        // Tolerance set after its run (fitted 0.167 and 0.244 m/s², drawn 0.172 and 0.252).
+        assert!(
+            (level - drawn).abs() <= 0.15 * drawn,
+            "axis {k}: friction {level:.3} m/s2 against the drawn {drawn:.3}"
+        );
+    }
+}
