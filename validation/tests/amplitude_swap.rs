@@ -21,11 +21,7 @@ fn a_play_named_friction_is_given_back_its_play() {
     assert_eq!(r.found, ["backlash"]);
     assert!(!r.final_model.has("coulomb_friction"));
     // Tolerance set after its run (0.53x; the friction left 1.07x).
-    assert!(
-        r.final_error <= 0.8 * r.noise_floor,
-        "final {:.2}x the floor",
-        r.final_error / r.noise_floor
-    );
+    indep_loop::assert_final_within(&r, 0.8);
 }
 
 /// Spent held-out draw 1180029 (examined after its range): frictions of 0.17 and 0.25 m/s²
@@ -39,11 +35,7 @@ fn a_friction_named_play_beside_a_low_pass_is_named_friction() {
     found.sort();
     assert_eq!(found, ["coulomb_friction", "sensor_lowpass"]);
     assert!(!r.final_model.has("backlash"));
-    assert!(
-        r.final_error <= 2.0 * r.noise_floor,
-        "final {:.2}x the floor",
-        r.final_error / r.noise_floor
-    );
+    indep_loop::assert_final_within(&r, 2.0);
     let bindings = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
     for (k, axis) in robot.axes.iter().enumerate() {
         let level = r

@@ -19,11 +19,7 @@ fn a_play_only_the_law_inside_the_servo_fits_is_named_and_the_data_explained() {
     assert_eq!(r.found, ["backlash"]);
     // Closure as the blind suite counts it: within twice the noise floor (the look's fit ends
     // at 1.46x, the identified model was at 4.4x).
-    assert!(
-        r.final_error <= 2.0 * r.noise_floor,
-        "final {:.2}x the floor",
-        r.final_error / r.noise_floor
-    );
+    indep_loop::assert_final_within(&r, 2.0);
     let bindings = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
     for (k, axis) in robot.axes.iter().enumerate() {
         let b = bindings[k];

@@ -11,7 +11,7 @@
 //! sines further than the clamp alone (`c = 0`, the seed's law).
 
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
-use crate::effects::servo::{servo_harmonics, ServoPart};
+use crate::effects::servo::{part_harmonics, ServoPart};
 use crate::effects::servo_link::{joint_response, TrunkLink};
 use num_complex::Complex64;
 
@@ -56,7 +56,7 @@ pub struct AccelerationSaturation {
 }
 
 impl AccelerationSaturation {
-    /// The describing function and the servo's third harmonic (see [`servo_harmonics`]).
+    /// The describing function and the servo's third harmonic (see [`crate::effects::servo::servo_harmonics`]).
     fn servo_harmonics(&self, omega: f64, amplitude: f64) -> (Complex64, Complex64) {
         // The linear servo's steady force (demand plus passive damping) for the joint's
         // response X_J (H on a rigid trunk): while its amplitude stays below the limit the
@@ -64,16 +64,18 @@ impl AccelerationSaturation {
         if self.servo_idle(omega, amplitude, 0.0) {
             return (Complex64::new(1.0, 0.0), Complex64::new(0.0, 0.0));
         }
-        let mut limits: [Box<dyn Effect>; 1] = [Box::new(self.clone())];
-        servo_harmonics(
-            self.servo,
-            self.h,
-            self.link,
-            &mut limits,
-            [2.0, self.limit, self.passive_damping],
-            omega,
-            amplitude,
-        )
+        part_harmonics(self.part(), omega, amplitude)
+    }
+
+    /// What the servo simulation needs of this effect (see [`ServoPart`]).
+    fn part(&self) -> ServoPart {
+        ServoPart {
+            effect: Box::new(self.clone()),
+            servo: self.servo,
+            h: self.h,
+            link: self.link,
+            identity: [2.0, self.limit, self.passive_damping],
+        }
     }
 }
 
@@ -82,13 +84,7 @@ impl Effect for AccelerationSaturation {
         &INFO
     }
     fn servo_part(&self) -> Option<ServoPart> {
-        Some(ServoPart {
-            effect: Box::new(self.clone()),
-            servo: self.servo,
-            h: self.h,
-            link: self.link,
-            identity: [2.0, self.limit, self.passive_damping],
-        })
+        Some(self.part())
     }
     /// The linear servo's steady force (demand plus passive damping) for the joint's response
     /// X_J (H on a rigid trunk), with `extra` on top, stays below the limit: the periodic state

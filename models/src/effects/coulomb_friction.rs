@@ -7,7 +7,7 @@
 //! motions lag and shrink, large ones barely notice.
 
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
-use crate::effects::servo::{servo_harmonics, ServoPart};
+use crate::effects::servo::{part_harmonics, ServoPart};
 use crate::effects::servo_link::TrunkLink;
 use num_complex::Complex64;
 
@@ -70,18 +70,20 @@ impl CoulombFriction {
 }
 
 impl CoulombFriction {
-    /// The describing function and the servo's third harmonic (see [`servo_harmonics`]).
+    /// The describing function and the servo's third harmonic (see [`crate::effects::servo::servo_harmonics`]).
     fn servo_harmonics(&self, omega: f64, amplitude: f64) -> (Complex64, Complex64) {
-        let mut limits: [Box<dyn Effect>; 1] = [Box::new(self.clone())];
-        servo_harmonics(
-            self.servo,
-            self.h,
-            self.link,
-            &mut limits,
-            [1.0, self.level, self.v_s],
-            omega,
-            amplitude,
-        )
+        part_harmonics(self.part(), omega, amplitude)
+    }
+
+    /// What the servo simulation needs of this effect (see [`ServoPart`]).
+    fn part(&self) -> ServoPart {
+        ServoPart {
+            effect: Box::new(self.clone()),
+            servo: self.servo,
+            h: self.h,
+            link: self.link,
+            identity: [1.0, self.level, self.v_s],
+        }
     }
 }
 
@@ -90,13 +92,7 @@ impl Effect for CoulombFriction {
         &INFO
     }
     fn servo_part(&self) -> Option<ServoPart> {
-        Some(ServoPart {
-            effect: Box::new(self.clone()),
-            servo: self.servo,
-            h: self.h,
-            link: self.link,
-            identity: [1.0, self.level, self.v_s],
-        })
+        Some(self.part())
     }
     fn servo_force_bound(&self) -> f64 {
         self.level

@@ -19,8 +19,8 @@ mod linked;
 mod step;
 
 pub use describing_function::{
-    clear_describing_function_cache, joint_servo_harmonics, play_harmonics, servo_harmonics,
-    ServoPart,
+    clear_describing_function_cache, joint_servo_harmonics, part_harmonics, play_harmonics,
+    servo_harmonics, ServoPart,
 };
 use step::substeps_for;
 pub(crate) use step::SUBSTEP_STIFFNESS;

@@ -118,8 +118,9 @@ fn finish(theta: Vec<f64>, cost: f64, jtj: &DMatrix<f64>, m: usize) -> (Vec<f64>
 mod tests {
     use super::*;
 
-    #[test]
-    fn fits_an_exponential() {
+    /// `2 exp(-1.3 t)` on 50 samples fitted from `(a, k)`, in `max_iter` iterations and up to
+    /// `extra` more while it descends: the parameters and the cost.
+    fn exponential(a: f64, k: f64, max_iter: usize, extra: usize) -> (Vec<f64>, f64) {
         let t: Vec<f64> = (0..50).map(|k| k as f64 * 0.1).collect();
         let y: Vec<f64> = t.iter().map(|t| 2.0 * (-1.3 * t).exp()).collect();
         let mut r = |p: &[f64]| {
@@ -130,24 +131,18 @@ mod tests {
                     .collect(),
             )
         };
-        let (p, cost, _) = minimise(
-            &[
-                Bounded {
-                    value: 1.0,
-                    min: 0.0,
-                    max: 10.0,
-                },
-                Bounded {
-                    value: 0.5,
-                    min: 0.0,
-                    max: 10.0,
-                },
-            ],
-            100,
-            0,
-            &mut r,
-        )
-        .unwrap();
+        let b = |value| Bounded {
+            value,
+            min: 0.0,
+            max: 10.0,
+        };
+        let (p, cost, _) = minimise(&[b(a), b(k)], max_iter, extra, &mut r).unwrap();
+        (p, cost)
+    }
+
+    #[test]
+    fn fits_an_exponential() {
+        let (p, cost) = exponential(1.0, 0.5, 100, 0);
         assert!(cost < 1e-16, "{cost}");
         assert!((p[0] - 2.0).abs() < 1e-6 && (p[1] - 1.3).abs() < 1e-6);
     }
@@ -169,34 +164,11 @@ mod tests {
         assert_eq!(p[0], 1.0);
     }
 
-    /// The exponential of `fits_an_exponential` from a far start, in `max_iter` iterations and
-    /// up to `extra` more while it descends.
-    fn far_exponential(max_iter: usize, extra: usize) -> f64 {
-        let t: Vec<f64> = (0..50).map(|k| k as f64 * 0.1).collect();
-        let y: Vec<f64> = t.iter().map(|t| 2.0 * (-1.3 * t).exp()).collect();
-        let mut r = |p: &[f64]| {
-            Some(
-                t.iter()
-                    .zip(&y)
-                    .map(|(t, y)| p[0] * (-p[1] * t).exp() - y)
-                    .collect(),
-            )
-        };
-        let b = |value| Bounded {
-            value,
-            min: 0.0,
-            max: 10.0,
-        };
-        minimise(&[b(0.2), b(3.0)], max_iter, extra, &mut r)
-            .unwrap()
-            .1
-    }
-
     #[test]
     fn goes_on_while_descending() {
         // Five iterations leave it at 0.49; the descent goes on to the exact fit.
-        let short = far_exponential(5, 0);
-        let long = far_exponential(5, 100);
+        let (_, short) = exponential(0.2, 3.0, 5, 0);
+        let (_, long) = exponential(0.2, 3.0, 5, 100);
         assert!(short > 0.1, "5 iterations already at {short}");
         assert!(long < 1e-16, "still at {long} with the descent allowed");
     }

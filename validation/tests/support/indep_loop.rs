@@ -112,3 +112,13 @@ pub fn drawn_campaign(seed: u64, scenario: &str) -> Drawn {
         dir,
     }
 }
+
+/// Asserts that the loop's last model leaves at most `ratio` times the noise floor.
+#[allow(dead_code)]
+pub fn assert_final_within(r: &LoopResult, ratio: f64) {
+    assert!(
+        r.final_error <= ratio * r.noise_floor,
+        "final {:.2}x the floor (at most {ratio}x)",
+        r.final_error / r.noise_floor
+    );
+}

@@ -109,6 +109,20 @@ pub struct ServoPart {
     pub identity: [f64; 3],
 }
 
+/// [`servo_harmonics`] of one servo effect, as its [`ServoPart`] names it.
+pub fn part_harmonics(part: ServoPart, omega: f64, amplitude: f64) -> (Complex64, Complex64) {
+    let [a, b, c] = part.identity;
+    ratio(
+        part.servo,
+        part.h,
+        part.link,
+        &mut [part.effect],
+        [a, b, c, 0.0, 0.0, 0.0],
+        omega,
+        amplitude,
+    )
+}
+
 /// The describing function and third harmonic of two servo effects acting together (a
 /// friction in a servo that saturates): one servo simulation with both, over the linear
 /// servo's, as [`servo_harmonics`] gives them for one. The product of their own describing
