@@ -17,6 +17,7 @@ pub use modes::{
 };
 pub use play::{play_in_servo_starts, plays_on_command};
 use saturation::acceleration_saturation;
+pub use saturation::{demanded_acceleration, inactive_limits};
 
 /// One scalar the fit moves; it sets `param` of `kind` at every binding listed.
 #[derive(Debug, Clone)]

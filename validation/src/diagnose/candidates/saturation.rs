@@ -4,14 +4,37 @@
 use super::{add_effect, per_axis, servo_params, DataRange, Free, Start, AXES};
 use zmp_models::{Binding, ModelSpec};
 
-pub(super) fn acceleration_saturation(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
-    // The largest acceleration the campaign demands of the linear servo.
+/// The largest acceleration the campaign demands of `spec`'s linear servo: the largest
+/// amplitude at the top frequency through the tracking low-pass.
+pub fn demanded_acceleration(spec: &ModelSpec, r: &DataRange) -> f64 {
     let (wn, zeta) = servo_params(spec);
-    let peak = |w: f64| {
-        let h = wn * wn / ((wn * wn - w * w).powi(2) + (2.0 * zeta * wn * w).powi(2)).sqrt();
-        w * w * h * r.amplitude_max
+    let w = r.omega_max;
+    let h = wn * wn / ((wn * wn - w * w).powi(2) + (2.0 * zeta * wn * w).powi(2)).sqrt();
+    (w * w * h * r.amplitude_max).max(1e-6)
+}
+
+/// The force limits (their bindings: an axis, or both) on excited axes that lie at or above
+/// everything the campaign demands: a limit that never acts, which a fit cannot move (no
+/// gradient).
+pub fn inactive_limits(spec: &ModelSpec, r: &DataRange) -> Vec<Binding> {
+    let acc = demanded_acceleration(spec, r);
+    let excited = |b: Binding| match b {
+        Binding::Axis(a) => AXES
+            .iter()
+            .zip(r.axes_excited)
+            .any(|(x, e)| e && *x == Binding::Axis(a)),
+        _ => r.axes_excited.iter().any(|e| *e),
     };
-    let acc = peak(r.omega_max).max(1e-6);
+    spec.effects
+        .iter()
+        .filter(|e| e.info.kind == "acceleration_saturation" && excited(e.binding))
+        .filter(|e| e.value("limit").is_some_and(|l| l >= acc))
+        .map(|e| e.binding)
+        .collect()
+}
+
+pub(super) fn acceleration_saturation(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
+    let acc = demanded_acceleration(spec, r);
     let (min, max) = (0.02 * acc, 2.0 * acc);
     if !spec.has("acceleration_saturation") {
         return per_axis(
@@ -29,16 +52,9 @@ pub(super) fn acceleration_saturation(spec: &ModelSpec, r: &DataRange) -> Vec<St
     // move it (no gradient): restart such an axis from below the demand, the active axes
     // from their values. Physical reason: the servo's force limit is an acceleration limit
     // that differs per axis with the inertia it moves (a flexible link, a heavier drive).
-    let inactive: Vec<Binding> = AXES
-        .iter()
-        .zip(r.axes_excited)
-        .filter(|(b, e)| {
-            *e && spec
-                .value("acceleration_saturation", **b, "limit")
-                .is_some_and(|l| l >= acc)
-        })
-        .map(|(b, _)| *b)
-        .collect();
+    // Per axis (a limit shared by both axes is left as it is).
+    let mut inactive = inactive_limits(spec, r);
+    inactive.retain(|b| matches!(b, Binding::Axis(_)));
     if inactive.is_empty() {
         return Vec::new();
     }

@@ -69,7 +69,7 @@ pub(super) fn look(
         .iter()
         .find(|c| c.effect == other)
         .expect("a catalogue effect");
-    let Some(child) = engine::score_candidate(candidate, &base.fitted.spec, obs)
+    let Some(child) = engine::score_candidate_unscreened(candidate, &base.fitted.spec, obs)
         .filter(|c| plausible(&c.fitted.frees[..c.fitted.own]))
     else {
         return Ok(None);
