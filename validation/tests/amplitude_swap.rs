@@ -26,8 +26,10 @@ fn a_play_named_friction_is_given_back_its_play() {
 
 /// Spent held-out draw 1180029 (examined after its range): frictions of 0.17 and 0.25 m/s²
 /// beside a sensor low-pass at 16 and 19 rad/s, in a servo that saturates. The search named a
-/// play on the command beside the low-pass; the friction, fitted on, replaces it, with its
-/// levels near the drawn ones.
+/// play on the command beside the low-pass; the friction, fitted on, replaced it, with its
+/// levels near the drawn ones. Since a friction's limit that the fit left idle is restarted
+/// below the demand, the search names the friction itself, stopped by the joint budget at
+/// 0.141 and 0.208 m/s2; the look at the other law keeps it and fits it on (change `refit`).
 #[test]
 fn a_friction_named_play_beside_a_low_pass_is_named_friction() {
     let (r, robot) = loop_and_robot(1_180_029, "pair:coulomb_friction,sensor_lowpass");

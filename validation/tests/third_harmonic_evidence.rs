@@ -60,8 +60,14 @@ fn friction_is_found_by_the_distortion_it_predicts() {
     for (axis, drawn) in [(Axis::X, 0.0658), (Axis::Y, 0.0611)] {
         let b = Binding::Axis(axis);
         let level = r.final_model.value("coulomb_friction", b, "level").unwrap();
-        assert!((level / drawn - 1.0).abs() < 0.03, "{axis:?} friction {level}");
-        let limit = r.final_model.value("acceleration_saturation", b, "limit").unwrap();
+        assert!(
+            (level / drawn - 1.0).abs() < 0.03,
+            "{axis:?} friction {level}"
+        );
+        let limit = r
+            .final_model
+            .value("acceleration_saturation", b, "limit")
+            .unwrap();
         assert!((limit / 1.223 - 1.0).abs() < 0.03, "{axis:?} limit {limit}");
     }
     // ... the friction's own third harmonic accounts for it, to about the noise.
@@ -70,4 +76,38 @@ fn friction_is_found_by_the_distortion_it_predicts() {
         after < 2.0 && after < before / 3.0,
         "with friction: {after:.2} per third-harmonic component (identified {before:.2})"
     );
+}
+
+/// Spent held-out draw 1190020 (examined after its range): a lone friction of 0.175 and
+/// 0.138 m/s2 in a servo of 39 rad/s that saturates at 1.30 m/s2. The identification's
+/// pendulum, servo (31.6 rad/s) and limit (1.21) took up the friction's first harmonic, so the
+/// friction's own fit, the rest held, fell to zero from both starts and the candidate was
+/// screened out: the loop named a structural mode, then the friction, then swapped it for a
+/// play (0.82x the noise floor, two effects, neither the drawn one alone). Fitted jointly from
+/// its starts it is named alone, with the drawn values.
+#[test]
+fn a_friction_the_identification_absorbed_is_fitted_from_its_starts() {
+    let (r, robot) = indep_loop::loop_and_robot(1_190_020, "single:coulomb_friction");
+    assert_eq!(r.found, ["coulomb_friction"]);
+    // Tolerance set after its run (0.78x).
+    indep_loop::assert_final_within(&r, 1.0);
+    for (k, axis) in robot.axes.iter().enumerate() {
+        let b = Binding::Axis([Axis::X, Axis::Y][k]);
+        let level = r.final_model.value("coulomb_friction", b, "level").unwrap();
+        let drawn = axis.friction.as_ref().expect("a drawn friction").kinetic;
+        // Fitted 0.1756 and 0.1382 (drawn 0.1753 and 0.1381).
+        assert!(
+            (level / drawn - 1.0).abs() < 0.03,
+            "axis {k}: {level} against {drawn}"
+        );
+        let limit = r
+            .final_model
+            .value("acceleration_saturation", b, "limit")
+            .unwrap();
+        let drawn = axis.servo.accel_limit;
+        assert!(
+            (limit / drawn - 1.0).abs() < 0.03,
+            "axis {k}: limit {limit} against {drawn}"
+        );
+    }
 }

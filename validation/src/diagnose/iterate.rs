@@ -222,7 +222,7 @@ fn run_loop_in_budget(
     {
         current = aug.spec.clone();
         found = names;
-        versions.push((vec![added], aug));
+        versions.push((added.into_iter().collect(), aug));
     }
     // A model with a mode that leaves the data unexplained: its structure refitted from
     // typical values (an early effect may have absorbed part of a later one).

@@ -31,16 +31,20 @@ use zmp_models::ModelSpec;
 /// The two amplitude laws of the catalogue.
 const LAWS: [&str; 2] = ["backlash", "coulomb_friction"];
 
-/// The effects the model that replaces `current` names (`found` with the law swapped), the
-/// effect it brings in, and that version; `None` when the model has both laws or neither, or
-/// the other does not win.
+/// The effects a version names, the effect it brings in (none: the named law fitted on), and
+/// the version.
+pub(super) type Swap = (Vec<String>, Option<String>, Augmented);
+
+/// The effects the model that replaces `current` names (`found` with the law swapped, or as
+/// it is when the named law, fitted on, predicts better), the effect it brings in, and that
+/// version; `None` when the model has both laws or neither, or neither change wins.
 pub(super) fn look(
     current: &ModelSpec,
     found: &[String],
     obs: &[&Observation],
     opts: &DiagnoseOptions,
     progress: &(dyn Fn(&str) + Sync),
-) -> Result<Option<(Vec<String>, String, Augmented)>, LoopError> {
+) -> Result<Option<Swap>, LoopError> {
     let named: Vec<&str> = LAWS
         .into_iter()
         .filter(|law| found.iter().any(|e| e == law) && current.has(law))
@@ -55,15 +59,29 @@ pub(super) fn look(
     progress(&format!("trying {other} in place of {removed}"));
     // Both laws fitted for as long as they descend: the choice is between the laws, not
     // between how far a fixed budget took each fit.
-    let Some(now) = engine::score_as_it_is(current, obs).map(|s| engine::polish(&s, obs)) else {
+    let Some(as_is) = engine::score_as_it_is(current, obs) else {
         return Ok(None);
+    };
+    let now = engine::polish(&as_is, obs);
+    // Where the other law does not win, the named one fitted on is the next version when it
+    // predicts the held-out records better (the same law, further down its valley).
+    let fitted_on = || -> Result<Option<Swap>, LoopError> {
+        if now.chi2 >= as_is.chi2 {
+            return Ok(None);
+        }
+        progress(&format!(
+            "{removed} fitted on: held-out chi-square {:.0} against {:.0}",
+            now.chi2, as_is.chi2
+        ));
+        let aug = version_from_diagnosis(obs, current, &now.fitted, "refit", opts)?;
+        Ok(Some((found.to_vec(), None, aug)))
     };
     let mut spec = current.clone();
     for k in model_kinds(removed) {
         spec.remove(k);
     }
     let Some(base) = engine::control(&spec, obs) else {
-        return Ok(None);
+        return fitted_on();
     };
     let candidate = CATALOGUE
         .iter()
@@ -72,7 +90,7 @@ pub(super) fn look(
     let Some(child) = engine::score_candidate_unscreened(candidate, &base.fitted.spec, obs)
         .filter(|c| plausible(&c.fitted.frees[..c.fitted.own]))
     else {
-        return Ok(None);
+        return fitted_on();
     };
     let mut best = child;
     if other == "backlash" {
@@ -96,7 +114,7 @@ pub(super) fn look(
         best.chi2, now.chi2
     ));
     if !replaces(&best, removed, now.chi2) {
-        return Ok(None);
+        return fitted_on();
     }
     progress(&format!("{other} replaces {removed}"));
     let names: Vec<String> = found
@@ -111,5 +129,5 @@ pub(super) fn look(
         .collect();
     let label = format!("{other}-for-{removed}");
     let aug = version_from_diagnosis(obs, current, &best.fitted, &label, opts)?;
-    Ok(Some((names, other.to_string(), aug)))
+    Ok(Some((names, Some(other.to_string()), aug)))
 }
