@@ -136,8 +136,12 @@ use zmp_validation::par::parallel_map;
 /// low-pass named play, which led to friction and force limit simulated together and the
 /// loop's look at the other amplitude law); from 1190000 (run once on the code of c739d1d,
 /// those in: singles 19/21, saturation and coupling 6/6, pairs 10/12, triples 2/3, clean
-/// 10/10, outside 2/8, closed 51/52, false effect 7/52; not examined).
-const HELD_OUT_FIRST_SEED: u64 = 1_200_000;
+/// 10/10, outside 2/8, closed 51/52, false effect 7/52; then examined: 1190020, a lone
+/// friction whose own fit fell to zero and was screened out, which led to the friction's joint
+/// fit from its starts); from 1200000 (run once on the code of 139fae4, that in: singles
+/// 21/21, saturation and coupling 6/6, pairs 12/12, triples 1/3, clean 10/10, outside 2/8,
+/// closed 51/52, false effect 6/52; not examined).
+const HELD_OUT_FIRST_SEED: u64 = 1_210_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
