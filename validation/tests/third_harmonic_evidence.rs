@@ -8,7 +8,9 @@
 #[path = "support/indep_loop.rs"]
 mod indep_loop;
 
+use zmp_indep_sim::Robot;
 use zmp_models::{Axis, Binding, ModelSpec};
+use zmp_validation::diagnose::iterate::LoopResult;
 use zmp_validation::diagnose::measure::{chi2_parts, predict};
 use zmp_validation::diagnose::observe::Observation;
 
@@ -22,7 +24,7 @@ fn third_chi2(model: &ModelSpec, obs: &[Observation]) -> (f64, usize) {
 
 #[test]
 fn friction_is_found_by_the_distortion_it_predicts() {
-    let r = indep_loop::loop_on(1_000_011, "single:coulomb_friction");
+    let (r, robot) = indep_loop::loop_and_robot(1_000_011, "single:coulomb_friction");
     let (before, n) = third_chi2(&r.identification.model, &r.observations);
     // Compared on the records below a third of the top frequency: most of the campaign.
     assert!(
@@ -57,19 +59,7 @@ fn friction_is_found_by_the_distortion_it_predicts() {
     assert!(r.explained);
     // The drawn robot's friction (0.0658 and 0.0611 m/s2) and force limit (1.223 m/s2) come
     // back within 3 %.
-    for (axis, drawn) in [(Axis::X, 0.0658), (Axis::Y, 0.0611)] {
-        let b = Binding::Axis(axis);
-        let level = r.final_model.value("coulomb_friction", b, "level").unwrap();
-        assert!(
-            (level / drawn - 1.0).abs() < 0.03,
-            "{axis:?} friction {level}"
-        );
-        let limit = r
-            .final_model
-            .value("acceleration_saturation", b, "limit")
-            .unwrap();
-        assert!((limit / 1.223 - 1.0).abs() < 0.03, "{axis:?} limit {limit}");
-    }
+    assert_friction_and_limit_drawn(&r, &robot, 0.03);
     // ... the friction's own third harmonic accounts for it, to about the noise.
     let (after, _) = third_chi2(&r.final_model, &r.observations);
     assert!(
@@ -91,14 +81,20 @@ fn a_friction_the_identification_absorbed_is_fitted_from_its_starts() {
     assert_eq!(r.found, ["coulomb_friction"]);
     // Tolerance set after its run (0.78x).
     indep_loop::assert_final_within(&r, 1.0);
+    // Fitted 0.1756 and 0.1382 (drawn 0.1753 and 0.1381).
+    assert_friction_and_limit_drawn(&r, &robot, 0.03);
+}
+
+/// The final model's friction level and force limit on each axis within `tol` (relative) of
+/// the drawn robot's.
+fn assert_friction_and_limit_drawn(r: &LoopResult, robot: &Robot, tol: f64) {
     for (k, axis) in robot.axes.iter().enumerate() {
         let b = Binding::Axis([Axis::X, Axis::Y][k]);
         let level = r.final_model.value("coulomb_friction", b, "level").unwrap();
         let drawn = axis.friction.as_ref().expect("a drawn friction").kinetic;
-        // Fitted 0.1756 and 0.1382 (drawn 0.1753 and 0.1381).
         assert!(
-            (level / drawn - 1.0).abs() < 0.03,
-            "axis {k}: {level} against {drawn}"
+            (level / drawn - 1.0).abs() < tol,
+            "axis {k}: friction {level} against {drawn}"
         );
         let limit = r
             .final_model
@@ -106,7 +102,7 @@ fn a_friction_the_identification_absorbed_is_fitted_from_its_starts() {
             .unwrap();
         let drawn = axis.servo.accel_limit;
         assert!(
-            (limit / drawn - 1.0).abs() < 0.03,
+            (limit / drawn - 1.0).abs() < tol,
             "axis {k}: limit {limit} against {drawn}"
         );
     }

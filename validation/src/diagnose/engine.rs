@@ -310,18 +310,17 @@ pub fn fit_screened(
         frees.extend(refit_frees(spec, own));
         fit_from(spec, &frees, own.len(), obs, iters).filter(|f| plausible(&f.frees[..f.own]))
     };
-    let joint = if collapsed {
-        starts
-            .iter()
-            .filter_map(|(s, f)| joint_from(s, f))
-            .min_by(|a, b| a.cost.total_cmp(&b.cost))
-            .filter(|f| f.cost <= best.cost)
-            .unwrap_or(best)
+    let from: Vec<(&ModelSpec, &[Free])> = if collapsed {
+        starts.iter().map(|(s, f)| (s, &f[..])).collect()
     } else {
-        joint_from(&best.spec, &best.frees[..best.own])
-            .filter(|f| f.cost <= best.cost)
-            .unwrap_or(best)
+        vec![(&best.spec, &best.frees[..best.own])]
     };
+    let joint = from
+        .into_iter()
+        .filter_map(|(s, f)| joint_from(s, f))
+        .min_by(|a, b| a.cost.total_cmp(&b.cost))
+        .filter(|f| f.cost <= best.cost)
+        .unwrap_or(best);
     Some(if effect == "coulomb_friction" {
         limits_revived(joint, obs, iters)
     } else {
