@@ -134,3 +134,41 @@ fn a_lightly_damped_link_between_two_sweep_frequencies_is_refitted_at_its_own() 
     );
     assert_modes_within(&r, &robot, [0.03, 0.01], 1_180_004);
 }
+
+/// Spent held-out draw 1200041 (examined after its range): a mode per plane, at 31.9 rad/s
+/// (above the sweep) and 18.4, a 99 ms delay and drift, the servo at 39.8 rad/s. The
+/// identification gave the delay's lag to a servo of 11.3 rad/s, damping 0.80; the loop named
+/// near-undamped links at 19.1 and 16.5 rad/s and the drift, and the delay tried beside those
+/// links removed 8 % of what was left: unexplained at 9.1x the floor. The delay fitted with
+/// the structure made typical (the seed's servo, the servo's extra lag as the delay, the modes
+/// also at the upper starts; `iterate::absorbed_delay`) removes 99 % (held-out chi-square
+/// 107771 -> 2284), and with the links then inside the servo the model is at 0.80x.
+/// Tolerances set after its run.
+#[test]
+fn a_delay_a_slow_servo_took_beside_links_it_bent_is_fitted_with_the_structure_typical() {
+    let seed = 1_200_041;
+    let (r, robot) = loop_and_robot(seed, "triple:structural_mode,time_delay,sensor_drift");
+    for e in ["structural_mode", "time_delay", "sensor_drift"] {
+        assert!(r.found.iter().any(|f| f == e), "found {:?}", r.found);
+    }
+    assert!(
+        r.explained && r.final_error <= 1.0 * r.noise_floor,
+        "explained {}, final {:.2}x the floor",
+        r.explained,
+        r.final_error / r.noise_floor
+    );
+    // Fitted 34.9 and 18.8 rad/s.
+    assert_modes_within(&r, &robot, [0.12, 0.05], seed);
+    // Fitted 92 ms on both axes (drawn 99).
+    for (k, axis) in robot.axes.iter().enumerate() {
+        let b = Binding::Axis([Axis::X, Axis::Y][k]);
+        let got = r.final_model.value("time_delay", b, "delay").unwrap_or(0.0);
+        let want = axis.command_delay;
+        assert!(
+            (got - want).abs() <= 0.12 * want,
+            "axis {k}: delay {:.1} ms against the drawn {:.1}",
+            got * 1e3,
+            want * 1e3
+        );
+    }
+}

@@ -641,9 +641,24 @@ pub fn evaluate(
     Ok(obs.iter().zip(&p).map(|(o, pr)| score(o, pr)).collect())
 }
 
-/// Parameters of a fitted candidate's own effect, by dotted name, with standard errors.
+/// Parameters of the effect a scored structure names, by dotted name, with standard errors:
+/// the fit's own parameters, or, when none of them belongs to that effect (the first effect of
+/// a pair, named on its partner's fit, whose own parameters are the partner's), the effect's
+/// among the rest of the fit.
 pub fn own_parameters(s: &Scored) -> BTreeMap<String, (f64, f64)> {
-    own_parameters_of(&s.fitted)
+    let f = &s.fitted;
+    let own = own_parameters_of(f);
+    let kinds = model_kinds(&s.effect);
+    if f.frees[..f.own].iter().any(|fr| kinds.contains(&fr.kind)) {
+        return own;
+    }
+    f.frees
+        .iter()
+        .zip(&f.theta)
+        .zip(&f.std_err)
+        .filter(|((fr, _), _)| kinds.contains(&fr.kind))
+        .map(|((fr, v), e)| (fr.name(), (*v, *e)))
+        .collect()
 }
 
 /// The same for a fit.
@@ -670,4 +685,53 @@ pub fn without_effect(s: &Scored) -> ModelSpec {
         }
     }
     spec
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A pair is scored on its second effect's fit: its own parameters are the partner's, so
+    /// the first effect's come from the rest of the fit (a delay reported with a friction's
+    /// levels on held-out draw 1200041); a single effect keeps its own.
+    #[test]
+    fn the_first_effect_of_a_pair_reports_its_own_parameters() {
+        let x = Binding::Axis(Axis::X);
+        let frees = vec![
+            Free::new("coulomb_friction", vec![x], "level", 9.5e-4, 0.0, 1.0),
+            Free::new("tracking_lowpass", vec![], "omega_n", 30.0, 1.0, 100.0),
+            Free::new("time_delay", vec![x], "delay", 0.09, 0.0, 0.45),
+        ];
+        let spec = ModelSpec::parse(
+            include_str!("../../../models/params/silo2-paper.toml"),
+            "m.toml",
+        )
+        .unwrap();
+        let scored = |effect: &str| Scored {
+            effect: effect.into(),
+            error: 0.0,
+            chi2: 0.0,
+            scores: Vec::new(),
+            chi2s: Vec::new(),
+            dofs: Vec::new(),
+            fitted: Fitted {
+                spec: spec.clone(),
+                theta: frees.iter().map(|f| f.bounds.value).collect(),
+                std_err: vec![1e-5, 0.1, 2e-3],
+                frees: frees.clone(),
+                own: 1,
+                cost: 0.0,
+            },
+        };
+        let delay = own_parameters(&scored("time_delay"));
+        assert_eq!(
+            delay.into_iter().collect::<Vec<_>>(),
+            vec![("time_delay.x.delay".to_string(), (0.09, 2e-3))]
+        );
+        let friction = own_parameters(&scored("coulomb_friction"));
+        assert_eq!(
+            friction.into_iter().collect::<Vec<_>>(),
+            vec![("coulomb_friction.x.level".to_string(), (9.5e-4, 1e-5))]
+        );
+    }
 }

@@ -54,7 +54,7 @@ pub(super) fn typical_start(current: &ModelSpec, seed_servo: bool) -> Option<Mod
 /// and the delay's, the refit stays there. Held-out draw 1150030 (modes at 13.5 and 22.5 rad/s,
 /// delays of 14 ms): the loop ended at 2.20x with the y link at 41.8 rad/s and delays of
 /// 46-49 ms; from these starts it reaches 0.93x with 13.6 / 22.8 rad/s and 15.5 ms.
-fn moved_starts(starts: Vec<ModelSpec>, r: &DataRange) -> Vec<ModelSpec> {
+pub(super) fn moved_starts(starts: Vec<ModelSpec>, r: &DataRange) -> Vec<ModelSpec> {
     let mut out = starts.clone();
     for s in &starts {
         for (kind, b) in mode_bindings(s) {
