@@ -155,7 +155,8 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         // A version without an added effect is the structure refitted (`refit`) or its
         // modes (`trunk-in-servo`) or its play (`play-in-servo`) moved inside the servo's loop;
         // one that puts an effect in another's place is named by its change
-        // (`time_delay-for-structural_mode`).
+        // (`time_delay-for-structural_mode`), one that takes out an effect that did nothing
+        // too (`without-time_delay`).
         let label = if added.is_empty() || !aug.change.starts_with('+') {
             aug.change.clone()
         } else {

@@ -23,6 +23,7 @@ mod amplitude_swap;
 mod play_inside;
 mod play_revision;
 mod typical;
+mod vacuous;
 
 pub use typical::TYPICAL_REFIT;
 
@@ -50,7 +51,8 @@ pub struct LoopResult {
     /// Each version after the identified model: the effects it adds (one, or a pair found
     /// together; none for the structure refitted, change `refit`, its modes moved inside the
     /// servo's loop, change `trunk-in-servo`, or its play, change `play-in-servo`; the effect
-    /// put in another's place, change `EFFECT-for-OTHER`, see `play_revision`) and the model.
+    /// put in another's place, change `EFFECT-for-OTHER`, see `play_revision`; none for effects
+    /// taken out that did nothing, change `without-EFFECT`, see `vacuous`) and the model.
     pub versions: Vec<(Vec<String>, Augmented)>,
     /// Every diagnosis run, in order.
     pub diagnoses: Vec<Diagnosis>,
@@ -249,6 +251,12 @@ fn run_loop_in_budget(
         current = aug.spec.clone();
         found.push("backlash".to_string());
         versions.push((vec!["backlash".to_string()], aug));
+    }
+    // Effects that do nothing in the final model (a delay of zero): no finding.
+    if let Some((names, aug)) = vacuous::take_out(&current, &found, &obs, opts, progress)? {
+        current = aug.spec.clone();
+        found = names;
+        versions.push((Vec::new(), aug));
     }
     let preds = predict(&current, &obs)?;
     let explained = explains(&obs, &preds);
