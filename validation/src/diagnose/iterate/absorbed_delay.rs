@@ -32,12 +32,12 @@
 //! and the loop then tries the trunk inside its servo again (0.80x the floor).
 
 use super::super::augment::Augmented;
-use super::super::candidates::{absorbed_lag, add_effect, model_kinds, DataRange, CATALOGUE};
+use super::super::candidates::{absorbed_lag, add_effect, DataRange, CATALOGUE};
 use super::super::engine;
 use super::super::observe::Observation;
 use super::super::select::MAX_EFFECTS;
 use super::super::DiagnoseOptions;
-use super::typical::{moved_starts, typical_start};
+use super::typical::{catalogue_kinds, moved_starts, typical_start};
 use super::{keep_if_removes_most, LoopError};
 use zmp_models::{Axis, Binding, ModelSpec};
 
@@ -94,10 +94,6 @@ fn with_typical_structure(
         .collect();
     add_effect(&mut s, "time_delay", &axes, &[lag]);
     let starts = moved_starts(vec![s], r);
-    let kinds: Vec<&str> = CATALOGUE
-        .iter()
-        .flat_map(|c| model_kinds(c.effect).iter().copied())
-        .collect();
-    let fitted = engine::refit_all_from(&starts, &kinds, obs)?;
+    let fitted = engine::refit_all_from(&starts, &catalogue_kinds(), obs)?;
     Some(engine::cross_validate("time_delay", fitted, obs))
 }

@@ -135,6 +135,14 @@ fn band_starts(start: &ModelSpec, obs: &[&Observation], r: &DataRange) -> Vec<Mo
     out
 }
 
+/// Every kind of effect the loop can add (their parameters all refitted, besides the core).
+pub(super) fn catalogue_kinds() -> Vec<&'static str> {
+    CATALOGUE
+        .iter()
+        .flat_map(|c| model_kinds(c.effect).iter().copied())
+        .collect()
+}
+
 /// The part of a fitted delay the refit from typical values also starts from.
 const DELAY_RESTART: f64 = 0.3;
 
@@ -168,12 +176,7 @@ pub(super) fn refit(
         return Ok(None);
     }
     progress("refitting the structure from typical values");
-    // Every parameter of every effect the loop can add, besides the core.
-    let kinds: Vec<&str> = CATALOGUE
-        .iter()
-        .flat_map(|c| model_kinds(c.effect).iter().copied())
-        .collect();
-    let fitted = engine::refit_all_from(&starts, &kinds, obs);
+    let fitted = engine::refit_all_from(&starts, &catalogue_kinds(), obs);
     adopt_law(current, &now, fitted.as_ref(), obs, TYPICAL_REFIT, opts)
 }
 
