@@ -140,8 +140,13 @@ use zmp_validation::par::parallel_map;
 /// friction whose own fit fell to zero and was screened out, which led to the friction's joint
 /// fit from its starts); from 1200000 (run once on the code of 139fae4, that in: singles
 /// 21/21, saturation and coupling 6/6, pairs 12/12, triples 1/3, clean 10/10, outside 2/8,
-/// closed 51/52, false effect 6/52; not examined).
-const HELD_OUT_FIRST_SEED: u64 = 1_210_000;
+/// closed 51/52, false effect 6/52; then examined: 1200041, a mode-delay-drift triple whose
+/// links bent to the delay's phase, which led to the delay fitted with the structure made
+/// typical); from 1210000 (run once on the code of b9063f6, that in, and development seed 11's
+/// mode giving way to the play inside its servo: singles 20/21, saturation and coupling 6/6,
+/// pairs 9/12, triples 2/3, clean 10/10, outside 4/8, closed 48/52, false effect 7/52; not
+/// examined).
+const HELD_OUT_FIRST_SEED: u64 = 1_220_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 
