@@ -172,3 +172,76 @@ fn assert_delays_within(
         );
     }
 }
+
+/// Spent held-out draw 1210038 (examined after its range): a link per plane at 22.2 and
+/// 17.2 rad/s, a 15 ms delay, limits of 1.82 m/s2, the servo at 29.0 rad/s and damping 0.83.
+/// The loop gave the delay's lag to the servo (21.8 rad/s, 0.78), named the links as filters
+/// of the reference with their damping at the floor and a limit, and ended unexplained at
+/// 1.24x the floor, the 8 mm records at the top frequencies 6.3x theirs. The servo's lag was
+/// no more than the seed's, so no delay was looked for. Now a model with a mode that leaves the
+/// data unexplained is given the delay fitted with its structure made typical even so, under
+/// both laws, with limits that never act restarted below the demand (the y limit stayed idle
+/// at 2.71 otherwise, at 93 per component): 98 % of the excess removed (4474 -> 892), 0.89x.
+/// Tolerances set after its run (fitted: servo 29.06 rad/s, delays 14.5 ms, links 21.7 and
+/// 17.2 rad/s).
+#[test]
+fn a_delay_a_servo_no_slower_than_the_seeds_took_is_found_beside_links() {
+    let seed = 1_210_038;
+    let (r, robot) = loop_and_robot(seed, "pair:structural_mode,time_delay");
+    for e in ["structural_mode", "time_delay"] {
+        assert!(r.found.iter().any(|f| f == e), "found {:?}", r.found);
+    }
+    assert!(
+        r.explained && r.final_error <= 0.95 * r.noise_floor,
+        "explained {}, final {:.2}x the floor",
+        r.explained,
+        r.final_error / r.noise_floor
+    );
+    assert_modes_within(&r, &robot, [0.05, 0.02], seed);
+    assert_delays_within(&r, &robot, 0.08);
+    let servo = r
+        .final_model
+        .value("tracking_lowpass", Binding::Axis(Axis::X), "omega_n")
+        .unwrap();
+    let drawn = robot.axes[0].servo.omega_n;
+    assert!(
+        (servo - drawn).abs() <= 0.03 * drawn,
+        "servo {servo:.2} rad/s against the drawn {drawn:.2}"
+    );
+}
+
+/// Spent held-out draw 1210022 (examined after its range): a lone link per plane, x at
+/// 14.3 rad/s (damping 0.038), y at 23.6 (0.049, above the sweep), the servo at 35.0 rad/s.
+/// The loop named the x link, a limit and a 5 ms delay and ended at 2.10x the floor with the
+/// servo at 22.5 rad/s; the search's y mode scored 2.5x, and the refit from typical values
+/// only re-typed the modes already there. It now also starts a typical link on each excited
+/// plane without one (`iterate::typical`): both links within 1 % of the drawn, the servo
+/// within 1 %, the delay taken out, 1.03x the floor. The draw still ends unexplained: the
+/// 8 mm records at 15 rad/s, beside the x link's resonance, lose 9 % of their gain to the
+/// force limit where the model loses none, 12x their floor (with the x limit restarted at
+/// the drawn value the fit ends at the same chi-square). Tolerances set after its run.
+#[test]
+fn a_second_planes_link_the_search_missed_is_started_by_the_typical_refit() {
+    let seed = 1_210_022;
+    let (r, robot) = loop_and_robot(seed, "single:structural_mode");
+    assert!(
+        r.versions.iter().any(|(_, v)| v.change == TYPICAL_REFIT),
+        "no {TYPICAL_REFIT} version"
+    );
+    assert!(!r.final_model.has("time_delay"), "a delay is left");
+    assert!(
+        r.final_error <= 1.1 * r.noise_floor,
+        "final {:.2}x the floor",
+        r.final_error / r.noise_floor
+    );
+    assert_modes_within(&r, &robot, [0.01, 0.01], seed);
+    let servo = r
+        .final_model
+        .value("tracking_lowpass", Binding::Axis(Axis::X), "omega_n")
+        .unwrap();
+    let drawn = robot.axes[0].servo.omega_n;
+    assert!(
+        (servo - drawn).abs() <= 0.01 * drawn,
+        "servo {servo:.2} rad/s against the drawn {drawn:.2}"
+    );
+}

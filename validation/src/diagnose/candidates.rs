@@ -12,8 +12,8 @@ mod saturation;
 
 use modes::structural_mode;
 pub use modes::{
-    mode_bindings, mode_free_axes, plausible, trunk_in_servo, trunk_law_starts, trunk_own_frees,
-    typical_links, upper_mode_starts,
+    add_typical_link, mode_bindings, mode_free_axes, plausible, trunk_in_servo, trunk_law_starts,
+    trunk_own_frees, typical_links, upper_mode_starts,
 };
 pub use play::{play_in_servo_starts, plays_on_command};
 use saturation::acceleration_saturation;

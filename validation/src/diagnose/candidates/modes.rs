@@ -290,6 +290,18 @@ pub fn typical_links(spec: &ModelSpec) -> Option<ModelSpec> {
     Some(s)
 }
 
+/// `spec` with a typical link on `b` at `omega` (damping [`LINK_ZETA`], share [`LINK_SHARE`],
+/// drive [`DRIVE_START`]), inside the servo or as a filter of the reference.
+pub fn add_typical_link(spec: &mut ModelSpec, b: Binding, omega: f64, in_servo: bool) {
+    let law = if in_servo { 1.0 } else { 0.0 };
+    add_effect(
+        spec,
+        "flexible_trunk",
+        &[b],
+        &[omega, LINK_ZETA, LINK_SHARE, DRIVE_START, law],
+    );
+}
+
 /// Upper bound of a structural mode's damping ratio in the fit: a resonance (peak gain
 /// `1/(2 zeta sqrt(1 - zeta^2))` = 1.36 at 0.4; none above 0.71). At 0.5 a random 15 %
 /// perturbation of G11 outside the catalogue was fitted as a mode of damping 0.43 once the
