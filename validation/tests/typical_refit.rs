@@ -245,3 +245,36 @@ fn a_second_planes_link_the_search_missed_is_started_by_the_typical_refit() {
         "servo {servo:.2} rad/s against the drawn {drawn:.2}"
     );
 }
+
+/// Spent held-out draw 1210030 (examined after its range): a link per plane at 26.5 and
+/// 29.1 rad/s (above the sweep), a 41 ms delay, the servo at 34.6 rad/s. The loop named a
+/// mode, a delay and a sensor low-pass and ended unexplained at 1.64x the floor with the modes
+/// on the ZMP path and delays of a few milliseconds: the low-pass held the delay's lag. The
+/// refit from typical values now also starts without the low-pass, with the links inside the
+/// servo and the delay at the delay candidate's starts (`iterate::typical`): the low-pass is
+/// dropped from the model and the findings, 0.87x. Tolerances set after its run (fitted:
+/// delays 37.5 ms, links 26.2 and 29.7 rad/s, servo 33.9 rad/s).
+#[test]
+fn a_sensor_lowpass_that_held_a_delays_lag_beside_links_is_dropped() {
+    let seed = 1_210_030;
+    let (r, robot) = loop_and_robot(seed, "pair:structural_mode,time_delay");
+    assert_eq!(r.found, ["structural_mode", "time_delay"]);
+    assert!(
+        !r.final_model.has("sensor_lowpass"),
+        "a sensor low-pass is left"
+    );
+    assert!(
+        r.versions
+            .iter()
+            .any(|(_, v)| v.change == format!("{TYPICAL_REFIT}-without-sensor_lowpass")),
+        "no {TYPICAL_REFIT}-without-sensor_lowpass version"
+    );
+    assert!(
+        r.explained && r.final_error <= 0.95 * r.noise_floor,
+        "explained {}, final {:.2}x the floor",
+        r.explained,
+        r.final_error / r.noise_floor
+    );
+    assert_modes_within(&r, &robot, [0.03, 0.04], seed);
+    assert_delays_within(&r, &robot, 0.15);
+}
