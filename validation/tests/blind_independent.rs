@@ -144,9 +144,17 @@ use zmp_validation::par::parallel_map;
 /// links bent to the delay's phase, which led to the delay fitted with the structure made
 /// typical); from 1210000 (run once on the code of b9063f6, that in, and development seed 11's
 /// mode giving way to the play inside its servo: singles 20/21, saturation and coupling 6/6,
-/// pairs 9/12, triples 2/3, clean 10/10, outside 4/8, closed 48/52, false effect 7/52; not
-/// examined).
-const HELD_OUT_FIRST_SEED: u64 = 1_220_000;
+/// pairs 9/12, triples 2/3, clean 10/10, outside 4/8, closed 48/52, false effect 7/52; then
+/// examined: 1210022, 1210030 and 1210038, modes beside delays or on both planes, which led to
+/// the typical refit's link on a bare plane, its starts without a sensor low-pass and the delay
+/// looked for beside links without an absorbed lag); from 1220000 (started on the code of
+/// a348115, those in but the last; stopped after 40 minutes with draw 1220001, a lone play,
+/// still in the loop's play-inside-the-servo refit on a model with a friction and a mode, so
+/// its table was not written; of the other 59: singles 20/20, saturation and coupling 6/6,
+/// pairs 10/12, triples 3/3, clean 10/10, outside 2/8, closed 50/51 (worst 1.02x); then
+/// examined: 1220038, a mode-delay pair named as a mode and a sensor low-pass, which led to
+/// those starts adding the delay and the force limit a model lacks).
+const HELD_OUT_FIRST_SEED: u64 = 1_230_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 

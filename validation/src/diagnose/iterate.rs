@@ -228,10 +228,11 @@ fn run_loop_in_budget(
     }
     // A model with a mode that leaves the data unexplained: its structure refitted from
     // typical values (an early effect may have absorbed part of a later one).
-    if let Some((aug, dropped)) = typical::refit(&current, &obs, opts, progress)? {
-        current = aug.spec.clone();
-        found.retain(|f| !dropped.contains(f));
-        versions.push((Vec::new(), aug));
+    if let Some(t) = typical::refit(&current, &obs, opts, progress)? {
+        current = t.aug.spec.clone();
+        found.retain(|f| !t.dropped.contains(f));
+        found.extend(t.added.iter().cloned());
+        versions.push((t.added, t.aug));
     }
     // A model without a delay whose servo low-pass lags more than the seed's: the delay it may
     // have absorbed.

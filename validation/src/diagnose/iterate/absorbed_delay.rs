@@ -72,8 +72,11 @@ pub(super) fn look(
     let lag = absorbed_lag(current, &r);
     // Without an absorbed lag, only the typical structure's delay, and only where the model
     // has a mode and does not explain the data.
+    // Nor on a model with a friction, whose every fit simulates every record (see
+    // `with_typical_structure`).
+    let light = !engine::heavy_base(current);
     if lag.is_none()
-        && (mode_bindings(current).is_empty() || explains(obs, &predict(current, obs)?))
+        && (!light || mode_bindings(current).is_empty() || explains(obs, &predict(current, obs)?))
     {
         return Ok(None);
     }
@@ -113,10 +116,16 @@ fn with_typical_structure(
         .map(|(a, _)| Binding::Axis(*a))
         .collect();
     add_effect(&mut s, "time_delay", &axes, &[lag]);
-    let laws: Vec<ModelSpec> = std::iter::once(s.clone())
-        .chain(trunk_in_servo(&s))
-        .collect();
-    let starts = moved_starts(revived_limits(laws, r), r);
+    // Under both laws and with idle limits revived, except on a model with a friction: its
+    // fits simulate every record, and those starts would multiply them.
+    let starts = if engine::heavy_base(current) {
+        moved_starts(vec![s], r)
+    } else {
+        let laws: Vec<ModelSpec> = std::iter::once(s.clone())
+            .chain(trunk_in_servo(&s))
+            .collect();
+        moved_starts(revived_limits(laws, r), r)
+    };
     let fitted = engine::refit_all_from(&starts, &catalogue_kinds(), obs)?;
     Some(engine::cross_validate("time_delay", fitted, obs))
 }

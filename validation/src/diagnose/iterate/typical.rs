@@ -19,8 +19,9 @@
 
 use super::super::augment::Augmented;
 use super::super::candidates::{
-    absorbed_lag, add_typical_link, demanded_acceleration, inactive_limits, mode_bindings,
-    model_kinds, trunk_in_servo, typical_links, upper_mode_starts, DataRange, CATALOGUE,
+    absorbed_lag, add_effect, add_typical_link, demanded_acceleration, inactive_limits,
+    mode_bindings, model_kinds, trunk_in_servo, typical_links, upper_mode_starts, DataRange,
+    CATALOGUE,
 };
 use super::super::engine;
 use super::super::measure::predict;
@@ -208,14 +209,14 @@ const DELAY_RESTART: f64 = 0.3;
 
 /// The model refitted from [`typical_start`]s when it has a mode, does not explain the data,
 /// and the refit is better on [`adopt_law`]'s terms, with the names of the effects the refit
-/// left out (a sensor low-pass, [`without_sensor_lowpass`]; change
-/// `refit-from-typical-without-sensor_lowpass`).
+/// left out and added (a sensor low-pass, a delay in its place: [`without_sensor_lowpass`];
+/// change `refit-from-typical-without-sensor_lowpass`, `...-with-time_delay`).
 pub(super) fn refit(
     current: &ModelSpec,
     obs: &[&Observation],
     opts: &DiagnoseOptions,
     progress: &(dyn Fn(&str) + Sync),
-) -> Result<Option<(Augmented, Vec<String>)>, LoopError> {
+) -> Result<Option<Refitted>, LoopError> {
     let mut starts: Vec<ModelSpec> = [false, true]
         .iter()
         .filter_map(|&seed| typical_start(current, seed))
@@ -227,12 +228,23 @@ pub(super) fn refit(
     if let Some(s) = lag_to_delays(current, &r) {
         starts.push(s);
     }
-    let planes = new_plane_starts(current, &r);
+    // A model with a friction simulates every record in every fit (`engine::heavy_base`),
+    // which the starts below would multiply: it keeps the refit's older starts.
+    let light = !engine::heavy_base(current);
+    let planes = if light {
+        new_plane_starts(current, &r)
+    } else {
+        Vec::new()
+    };
     let in_band = starts
         .first()
         .map(|s| band_starts(s, obs, &r))
         .unwrap_or_default();
-    let bare = without_sensor_lowpass(current, &r);
+    let bare = if light {
+        without_sensor_lowpass(current, &r)
+    } else {
+        Vec::new()
+    };
     starts = moved_starts(starts, &r);
     starts.extend(in_band);
     starts.extend(planes);
@@ -248,32 +260,65 @@ pub(super) fn refit(
         .iter()
         .filter_map(|group| engine::refit_all_from(group, &kinds, obs))
         .min_by(|a, b| a.cost.total_cmp(&b.cost));
-    let dropped: Vec<String> = fitted
-        .as_ref()
-        .filter(|f| current.has(LOWPASS) && !f.spec.has(LOWPASS))
-        .map(|_| vec![LOWPASS.to_string()])
-        .unwrap_or_default();
-    let label = match dropped.first() {
-        Some(e) => format!("{TYPICAL_REFIT}-without-{e}"),
-        None => TYPICAL_REFIT.to_string(),
+    let changed = |kind: &str, now_has: bool| {
+        fitted
+            .as_ref()
+            .filter(|f| current.has(kind) == now_has && f.spec.has(kind) != now_has)
+            .map(|_| vec![kind.to_string()])
+            .unwrap_or_default()
     };
-    Ok(adopt_law(current, &now, fitted.as_ref(), obs, &label, opts)?.map(|aug| (aug, dropped)))
+    let dropped = changed(LOWPASS, true);
+    let added: Vec<String> = [DELAY, LIMIT]
+        .iter()
+        .flat_map(|k| changed(k, false))
+        .collect();
+    let mut label = TYPICAL_REFIT.to_string();
+    for e in &dropped {
+        label.push_str(&format!("-without-{e}"));
+    }
+    for e in &added {
+        label.push_str(&format!("-with-{e}"));
+    }
+    Ok(
+        adopt_law(current, &now, fitted.as_ref(), obs, &label, opts)?.map(|aug| Refitted {
+            aug,
+            dropped,
+            added,
+        }),
+    )
 }
+
+/// What [`refit`] adopted: the version, the effects it left out and those it added.
+pub(super) struct Refitted {
+    pub aug: Augmented,
+    pub dropped: Vec<String>,
+    pub added: Vec<String>,
+}
+
+/// The delay and the force limit, which [`without_sensor_lowpass`] starts add where the model
+/// has none.
+const DELAY: &str = "time_delay";
+const LIMIT: &str = "acceleration_saturation";
 
 /// The sensor low-pass, which [`without_sensor_lowpass`] starts also leave out.
 const LOWPASS: &str = "sensor_lowpass";
 
 /// With a sensor low-pass beside a mode: the seed-servo typical start under both laws without
-/// it, its delays (if any) at each of the delay candidate's starts (a tenth, a half and one and
-/// a half radians at the top frequency). A first-order filter on the measurement lags the
-/// phase more with the frequency, as a delay does; named beside a mode and a short delay it
-/// can hold most of the delay's lag, and the refit from there stays. Held-out draw 1210030
-/// (spent: links at 26.5 and 29.1 rad/s, above the sweep, a 41 ms delay, the servo at
-/// 34.6 rad/s) ended unexplained at 1.64x the floor with modes on the ZMP path, delays of
-/// 3-4 ms and a sensor low-pass; without it, the links typical inside the servo and the delay
-/// at 33 ms, the refit reaches 38 ms, the servo at 33.9 rad/s, links at 26.2 and 29.7 rad/s:
-/// 0.87x (from the loop's 3-4 ms it stays at 5.9 per component). Empty without a sensor
-/// low-pass.
+/// it, its delays (one on each excited axis where it has none) at each of the delay
+/// candidate's starts (a tenth, a half and one and a half radians at the top frequency), a
+/// force limit at nine tenths of the demand where it has none, a typical link at each upper
+/// start on an excited plane without a mode ([`new_plane_starts`]), idle limits revived
+/// ([`revived_limits`]). A first-order filter on the measurement lags the phase more with the
+/// frequency, as a delay does; named beside a mode and a short delay (or none) it can hold
+/// most of the delay's lag, and the refit from there stays. Held-out draw 1210030 (spent: links
+/// at 26.5 and 29.1 rad/s, above the sweep, a 41 ms delay, the servo at 34.6 rad/s) ended
+/// unexplained at 1.64x the floor with modes on the ZMP path, delays of 3-4 ms and a sensor
+/// low-pass; without it, the links typical inside the servo and the delay at 33 ms, the refit
+/// reaches 38 ms, the servo at 33.9 rad/s, links at 26.2 and 29.7 rad/s: 0.87x (from the
+/// loop's 3-4 ms it stays at 5.9 per component). Held-out draw 1220038 (spent: links at 14.5
+/// and 32.9 rad/s, delays of 67 and 47 ms, limits of 1.13 m/s2) ended at 7.45x with the x link
+/// and a low-pass at 11-14 rad/s, no delay, no limit; from these starts, 0.88x with delays of
+/// 66 and 47 ms. Empty without a sensor low-pass.
 fn without_sensor_lowpass(current: &ModelSpec, r: &DataRange) -> Vec<ModelSpec> {
     if !current.has(LOWPASS) {
         return Vec::new();
@@ -283,14 +328,52 @@ fn without_sensor_lowpass(current: &ModelSpec, r: &DataRange) -> Vec<ModelSpec> 
     };
     base.remove(LOWPASS);
     base.stderr.remove(LOWPASS);
-    let laws: Vec<ModelSpec> = std::iter::once(base.clone())
+    let axes: Vec<Binding> = Axis::BOTH
+        .iter()
+        .filter(|a| r.axes_excited[a.index()])
+        .map(|a| Binding::Axis(*a))
+        .collect();
+    // Without a delay, the low-pass's lag goes to one on each excited axis; without a force
+    // limit, one at nine tenths of the demand (the seed's robot has one).
+    if !base.has(DELAY) {
+        add_effect(&mut base, DELAY, &axes, &[0.0]);
+    }
+    if !base.has(LIMIT) {
+        let limit = 0.9 * demanded_acceleration(&base, r);
+        for b in &axes {
+            add_effect(&mut base, LIMIT, &[*b], &[limit]);
+        }
+    }
+    let mut laws: Vec<ModelSpec> = std::iter::once(base.clone())
         .chain(trunk_in_servo(&base))
         .collect();
+    // And a link on each excited plane without one ([`new_plane_starts`]).
+    let in_servo = |s: &ModelSpec| {
+        s.effects
+            .iter()
+            .any(|e| e.info.kind == "flexible_trunk" && e.value("in_servo") == Some(1.0))
+    };
+    for b in &axes {
+        if mode_bindings(&base).iter().any(|(_, m)| m == b) {
+            continue;
+        }
+        laws = laws
+            .iter()
+            .flat_map(|l| {
+                upper_mode_starts(r).map(|w| {
+                    let mut s = l.clone();
+                    add_typical_link(&mut s, *b, w, in_servo(l));
+                    s
+                })
+            })
+            .collect();
+    }
+    let laws = revived_limits(laws, r);
     let mut out = Vec::new();
     for law in &laws {
         for t in [0.1, 0.5, 1.5] {
             let mut s = law.clone();
-            for e in s.effects.iter_mut().filter(|e| e.info.kind == "time_delay") {
+            for e in s.effects.iter_mut().filter(|e| e.info.kind == DELAY) {
                 if let Some(i) = e.info.param_index("delay") {
                     e.values[i] = t / r.omega_max;
                 }
