@@ -50,7 +50,9 @@ fn check(
         );
     }
     assert!(
-        r.versions.iter().any(|(_, v)| v.change == TYPICAL_REFIT),
+        r.versions
+            .iter()
+            .any(|(_, v)| v.change.starts_with(TYPICAL_REFIT)),
         "draw {seed}: no {TYPICAL_REFIT} version"
     );
     assert!(
@@ -68,9 +70,17 @@ fn a_mode_and_a_delay_fitted_one_after_the_other_are_refitted_from_typical_value
     let _ = check(7400, 1.0);
 }
 
+/// Since the refit from typical values also starts without a sensor low-pass, the low-pass
+/// named beside 7409's delay leaves, and the delay goes from 52 ms to 82 ms (drawn 96) at
+/// 0.84x the floor (tolerance set after that run).
 #[test]
 fn a_delay_a_link_had_absorbed_is_named_once_the_link_is_no_mode() {
-    let _ = check(7409, 1.05);
+    let (r, robot) = check(7409, 1.05);
+    assert!(
+        !r.final_model.has("sensor_lowpass"),
+        "a sensor low-pass is left"
+    );
+    assert_delays_within(&r, &robot, 0.2);
 }
 
 #[test]
