@@ -163,6 +163,24 @@ fn a_delay_a_slow_servo_took_beside_links_it_bent_is_fitted_with_the_structure_t
     assert_delays_within(&r, &robot, 0.12);
 }
 
+/// Asserts that the final model's servo low-pass frequency lies within `tol` (relative) of the
+/// drawn robot's.
+fn assert_servo_within(
+    r: &zmp_validation::diagnose::iterate::LoopResult,
+    robot: &zmp_indep_sim::Robot,
+    tol: f64,
+) {
+    let servo = r
+        .final_model
+        .value("tracking_lowpass", Binding::Axis(Axis::X), "omega_n")
+        .unwrap();
+    let drawn = robot.axes[0].servo.omega_n;
+    assert!(
+        (servo - drawn).abs() <= tol * drawn,
+        "servo {servo:.2} rad/s against the drawn {drawn:.2}"
+    );
+}
+
 /// Asserts that each axis's delay in the loop's final model lies within `tol` (relative) of
 /// the drawn robot's command delay (a missing delay counts as zero).
 fn assert_delays_within(
@@ -209,15 +227,7 @@ fn a_delay_a_servo_no_slower_than_the_seeds_took_is_found_beside_links() {
     );
     assert_modes_within(&r, &robot, [0.05, 0.02], seed);
     assert_delays_within(&r, &robot, 0.08);
-    let servo = r
-        .final_model
-        .value("tracking_lowpass", Binding::Axis(Axis::X), "omega_n")
-        .unwrap();
-    let drawn = robot.axes[0].servo.omega_n;
-    assert!(
-        (servo - drawn).abs() <= 0.03 * drawn,
-        "servo {servo:.2} rad/s against the drawn {drawn:.2}"
-    );
+    assert_servo_within(&r, &robot, 0.03);
 }
 
 /// Spent held-out draw 1210022 (examined after its range): a lone link per plane, x at
@@ -245,15 +255,7 @@ fn a_second_planes_link_the_search_missed_is_started_by_the_typical_refit() {
         r.final_error / r.noise_floor
     );
     assert_modes_within(&r, &robot, [0.01, 0.01], seed);
-    let servo = r
-        .final_model
-        .value("tracking_lowpass", Binding::Axis(Axis::X), "omega_n")
-        .unwrap();
-    let drawn = robot.axes[0].servo.omega_n;
-    assert!(
-        (servo - drawn).abs() <= 0.01 * drawn,
-        "servo {servo:.2} rad/s against the drawn {drawn:.2}"
-    );
+    assert_servo_within(&r, &robot, 0.01);
 }
 
 /// Spent held-out draw 1210030 (examined after its range): a link per plane at 26.5 and
