@@ -5,11 +5,16 @@
 //! [`parallel_map`] worker gets 1 plus the pool's workers that have run out of jobs (the outer
 //! map already uses the cores; at its tail, the last long job may use the cores the others left
 //! idle), and code deep in a call tree asks [`budget`] instead of starting threads of its own.
+//!
+//! A time limit travels the same way: an entry point sets it with [`with_deadline`], the
+//! workers of a [`parallel_map`] inherit their caller's, and a long computation deep in the
+//! tree asks [`past_deadline`] (the diagnosis's fits: see `diagnose::engine`).
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::convert::Infallible;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
+use std::time::Instant;
 
 #[derive(Clone)]
 enum Budget {
@@ -22,6 +27,34 @@ enum Budget {
 
 thread_local! {
     static BUDGET: RefCell<Budget> = const { RefCell::new(Budget::Machine) };
+    static DEADLINE: Cell<Option<Instant>> = const { Cell::new(None) };
+}
+
+/// Runs `f` with `deadline` as this thread's time limit (and its pools' workers'); restored
+/// afterwards, also when `f` panics. An inner deadline later than the one already set does
+/// not extend it.
+pub fn with_deadline<R>(deadline: Option<Instant>, f: impl FnOnce() -> R) -> R {
+    struct Restore(Option<Instant>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            DEADLINE.with(|d| d.set(self.0));
+        }
+    }
+    let outer = DEADLINE.with(Cell::get);
+    let inner = match (outer, deadline) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    };
+    let _restore = Restore(outer);
+    DEADLINE.with(|d| d.set(inner));
+    f()
+}
+
+/// Whether this thread's time limit (see [`with_deadline`]) has passed.
+pub fn past_deadline() -> bool {
+    DEADLINE
+        .with(Cell::get)
+        .is_some_and(|d| Instant::now() >= d)
 }
 
 /// Threads the work on this thread may use: what [`with_threads`] set; inside a
@@ -78,11 +111,13 @@ pub fn try_parallel_map<T: Send, E: Send>(
     let next = AtomicUsize::new(0);
     let first_failure = AtomicUsize::new(usize::MAX);
     let idle = Arc::new(AtomicUsize::new(0));
+    let deadline = DEADLINE.with(Cell::get);
     let mut done: Vec<(usize, Result<T, E>)> = std::thread::scope(|s| {
         let handles: Vec<_> = (0..workers)
             .map(|_| {
                 s.spawn(|| {
                     set_budget(Budget::Worker(Arc::clone(&idle)));
+                    DEADLINE.with(|d| d.set(deadline));
                     let mut mine = Vec::new();
                     loop {
                         let k = next.fetch_add(1, Ordering::Relaxed);
@@ -144,6 +179,30 @@ mod tests {
         let caught = std::panic::catch_unwind(|| with_threads(5, || panic!("inside")));
         assert!(caught.is_err());
         assert!(unset());
+    }
+
+    #[test]
+    fn a_deadline_reaches_the_workers_and_is_restored() {
+        let now = Instant::now();
+        assert!(!past_deadline());
+        with_deadline(Some(now), || {
+            assert!(past_deadline());
+            // The workers of a pool see their caller's deadline.
+            assert_eq!(parallel_map(4, 2, |_| past_deadline()), vec![true; 4]);
+            // A later inner deadline does not extend the outer one.
+            let later = now + std::time::Duration::from_secs(3600);
+            with_deadline(Some(later), || assert!(past_deadline()));
+            with_deadline(None, || assert!(past_deadline()));
+        });
+        assert!(!past_deadline());
+        let later = Instant::now() + std::time::Duration::from_secs(3600);
+        with_deadline(Some(later), || {
+            assert!(!past_deadline());
+            assert_eq!(parallel_map(3, 2, |_| past_deadline()), vec![false; 3]);
+        });
+        let caught = std::panic::catch_unwind(|| with_deadline(Some(now), || panic!("inside")));
+        assert!(caught.is_err());
+        assert!(!past_deadline());
     }
 
     #[test]

@@ -25,6 +25,8 @@ pub struct LoopArgs<'a> {
     pub out: &'a Path,
     pub force: bool,
     pub json: bool,
+    /// Wall-clock limit of the whole loop (`DiagnoseOptions::time_limit`); `None`: none.
+    pub time_limit: Option<std::time::Duration>,
 }
 
 /// One model version the loop wrote.
@@ -54,13 +56,21 @@ pub struct LoopSummary {
     pub final_model: PathBuf,
     /// Where the last model still fails, when it does (one line per cell).
     pub still_failing: Vec<String>,
+    /// Whether the time limit (`--time-limit`) passed before the loop ended: the last model
+    /// is the best it reached in time.
+    pub time_limit_reached: bool,
 }
 
-fn options(campaign: &Path, model: &Path) -> DiagnoseOptions {
+fn options(
+    campaign: &Path,
+    model: &Path,
+    time_limit: Option<std::time::Duration>,
+) -> DiagnoseOptions {
     DiagnoseOptions {
         campaign_path: campaign.display().to_string(),
         model_path: model.display().to_string(),
         threads: zmp_validation::par::budget(),
+        time_limit,
         ..DiagnoseOptions::default()
     }
 }
@@ -91,7 +101,7 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     zmp_validation::io::claim_dir(out, LOOP_MARKER, a.force, "loop output")?;
     let identified = out.join("identified.toml");
     let start = a.model.map(load_model).transpose()?;
-    let dopts = options(a.campaign, &identified);
+    let dopts = options(a.campaign, &identified, a.time_limit);
     let iopts = IdentifyOptions {
         campaign_path: Some(a.campaign.to_path_buf()),
         ..IdentifyOptions::default()
@@ -217,6 +227,13 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     for c in &still_failing {
         say(&format!("   still failing: {c}"));
     }
+    if r.time_limit_reached {
+        say(&format!(
+            "   the time limit ({} s, --time-limit) passed before the loop ended: the last \
+             model is the best it reached in time",
+            a.time_limit.map_or(0, |d| d.as_secs())
+        ));
+    }
     Ok(LoopSummary {
         campaign: a.campaign.to_path_buf(),
         found: r.found.clone(),
@@ -231,6 +248,7 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         history,
         final_model: current_path,
         still_failing,
+        time_limit_reached: r.time_limit_reached,
     })
 }
 
@@ -285,6 +303,7 @@ pub fn demo_loop(dir: &Path, quiet: bool) -> Result<DemoLoop> {
             out: &dir.join("loop"),
             force: true,
             json: quiet,
+            time_limit: None,
         },
         quiet,
     )?;

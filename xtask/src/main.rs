@@ -294,6 +294,13 @@ enum Cmd {
         /// Print a machine-readable summary (versions, errors, effects found, outcome).
         #[arg(long)]
         json: bool,
+        /// Wall-clock limit of the whole loop, in seconds (0: none). Past it every fit ends
+        /// with its best parameters so far, the loop stops, writes what it reached and says
+        /// so (`time_limit_reached` in --json). Most campaigns take seconds to a minute or
+        /// two; a friction beside a play and a mode, whose describing functions are simulated
+        /// at every evaluation, can take far longer.
+        #[arg(long, value_name = "SECONDS", default_value_t = 900)]
+        time_limit: u64,
     },
     /// Validate the seed's model on a MuJoCo twin (physics the project did not write): campaign,
     /// identification, closed loop and diagnosis on the twin, with an HTML report.
@@ -460,6 +467,7 @@ fn dispatch(command: Cmd) -> Result<()> {
             out,
             force,
             json,
+            time_limit,
         } => {
             let out = out.unwrap_or_else(|| {
                 let name = campaign
@@ -474,6 +482,7 @@ fn dispatch(command: Cmd) -> Result<()> {
                 out: &out,
                 force,
                 json,
+                time_limit: (time_limit > 0).then(|| std::time::Duration::from_secs(time_limit)),
             })
             .map(|_| ())
         }

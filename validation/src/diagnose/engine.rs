@@ -110,6 +110,11 @@ fn fit_descending(
     let theta0: Vec<Bounded> = frees.iter().map(|f| f.bounds).collect();
     let mut work = start.clone();
     let mut r = |theta: &[f64]| -> Option<Vec<f64>> {
+        // Past the time limit of the work it serves (`par::with_deadline`), no evaluation:
+        // the fit ends with its best so far.
+        if crate::par::past_deadline() {
+            return None;
+        }
         apply(&mut work, frees, theta);
         let p = predict(&work, obs).ok()?;
         let mut out = Vec::with_capacity(obs.len() * COMPONENTS);
@@ -118,7 +123,7 @@ fn fit_descending(
         }
         out.iter().all(|v| v.is_finite()).then_some(out)
     };
-    let (theta, cost, var) = minimise(&theta0, iters, extra, &mut r)?;
+    let (theta, cost, var) = minimise(&theta0, iters, extra, &mut r, &crate::par::past_deadline)?;
     let mut spec = start.clone();
     apply(&mut spec, frees, &theta);
     let mut frees = frees.to_vec();

@@ -66,6 +66,9 @@ pub struct LoopResult {
     pub final_model: ModelSpec,
     /// The observations the loop compared (the identification's record analyses).
     pub observations: Vec<Observation>,
+    /// Whether the time limit ([`DiagnoseOptions::time_limit`], of the whole loop) passed
+    /// before the loop ended: the last model is the best it reached in time.
+    pub time_limit_reached: bool,
 }
 
 /// Runs the loop on `campaign`. `start` is a model whose structure is identified instead of
@@ -77,8 +80,11 @@ pub fn run_loop(
     opts: &DiagnoseOptions,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<LoopResult, LoopError> {
+    let deadline = opts.time_limit.map(|d| std::time::Instant::now() + d);
     crate::par::with_threads(opts.threads, || {
-        run_loop_in_budget(campaign, start, iopts, opts, progress)
+        crate::par::with_deadline(deadline, || {
+            run_loop_in_budget(campaign, start, iopts, opts, progress)
+        })
     })
 }
 
@@ -113,6 +119,9 @@ fn run_loop_in_budget(
         ..opts.clone()
     };
     for _ in 0..MAX_ROUNDS {
+        if crate::par::past_deadline() {
+            break;
+        }
         progress("diagnosing");
         let d = diagnose_observations(
             observations.clone(),
@@ -204,62 +213,15 @@ fn run_loop_in_budget(
             }
         }
     }
-    // The rounds ran out with effects still being added: the same once more.
-    if !settled {
-        if let Some(aug) = trunk_law(&current, &obs, opts, progress)? {
-            current = aug.spec.clone();
-            versions.push((Vec::new(), aug));
-        }
-    }
-    // The effects named beside a play, judged again with the play inside its servo.
-    if let Some((names, added, aug)) =
-        play_revision::revise(&current, &found, &obs, opts, progress)?
-    {
-        current = aug.spec.clone();
-        found = names;
-        versions.push((vec![added], aug));
-    }
-    // A model with a play or a friction: the other amplitude law in its place.
-    if let Some((names, added, aug)) = amplitude_swap::look(&current, &found, &obs, opts, progress)?
-    {
-        current = aug.spec.clone();
-        found = names;
-        versions.push((added.into_iter().collect(), aug));
-    }
-    // A model with a mode that leaves the data unexplained: its structure refitted from
-    // typical values (an early effect may have absorbed part of a later one).
-    if let Some(t) = typical::refit(&current, &obs, opts, progress)? {
-        current = t.aug.spec.clone();
-        found.retain(|f| !t.dropped.contains(f));
-        found.extend(t.added.iter().cloned());
-        versions.push((t.added, t.aug));
-    }
-    // A model without a delay whose servo low-pass lags more than the seed's: the delay it may
-    // have absorbed.
-    if let Some(aug) = absorbed_delay::look(&current, &found, &obs, opts, progress)? {
-        current = aug.spec.clone();
-        found.push("time_delay".to_string());
-        versions.push((vec!["time_delay".to_string()], aug));
-        // With the delay in, the modes may fit better inside their servo (1200041: from 2.77x
-        // the floor as filters to 0.80x).
-        if let Some(aug) = trunk_law(&current, &obs, opts, progress)? {
-            current = aug.spec.clone();
-            versions.push((Vec::new(), aug));
-        }
-    }
-    // A model that leaves the data unexplained without a play: a play inside its servo, the
-    // law the search reaches only through a play on the command.
-    if let Some(aug) = play_inside::look(&current, &found, &obs, opts, progress)? {
-        current = aug.spec.clone();
-        found.push("backlash".to_string());
-        versions.push((vec!["backlash".to_string()], aug));
-    }
-    // Effects that do nothing in the final model (a delay of zero): no finding.
-    if let Some((names, aug)) = vacuous::take_out(&current, &found, &obs, opts, progress)? {
-        current = aug.spec.clone();
-        found = names;
-        versions.push((Vec::new(), aug));
-    }
+    last_looks(
+        settled,
+        &mut current,
+        &mut found,
+        &mut versions,
+        &obs,
+        opts,
+        progress,
+    )?;
     let preds = predict(&current, &obs)?;
     let explained = explains(&obs, &preds);
     let final_error = error(&obs, &preds);
@@ -274,7 +236,98 @@ fn run_loop_in_budget(
         final_error,
         final_model: current,
         observations,
+        time_limit_reached: crate::par::past_deadline(),
     })
+}
+
+/// The looks the loop takes once its rounds end (each explained where it is called), each only
+/// while the time limit has not passed (`par::past_deadline`: its fits would end at once, but
+/// a stage still predicts its model, seconds per evaluation where a friction is simulated).
+#[allow(clippy::too_many_arguments)]
+fn last_looks(
+    settled: bool,
+    current: &mut ModelSpec,
+    found: &mut Vec<String>,
+    versions: &mut Vec<(Vec<String>, Augmented)>,
+    obs: &[&Observation],
+    opts: &DiagnoseOptions,
+    progress: &(dyn Fn(&str) + Sync),
+) -> Result<(), LoopError> {
+    if crate::par::past_deadline() {
+        return Ok(());
+    }
+    // The rounds ran out with effects still being added: the same once more.
+    if !settled {
+        if let Some(aug) = trunk_law(current, obs, opts, progress)? {
+            *current = aug.spec.clone();
+            versions.push((Vec::new(), aug));
+        }
+    }
+    if crate::par::past_deadline() {
+        return Ok(());
+    }
+    // The effects named beside a play, judged again with the play inside its servo.
+    if let Some((names, added, aug)) = play_revision::revise(current, found, obs, opts, progress)? {
+        *current = aug.spec.clone();
+        *found = names;
+        versions.push((vec![added], aug));
+    }
+    if crate::par::past_deadline() {
+        return Ok(());
+    }
+    // A model with a play or a friction: the other amplitude law in its place.
+    if let Some((names, added, aug)) = amplitude_swap::look(current, found, obs, opts, progress)? {
+        *current = aug.spec.clone();
+        *found = names;
+        versions.push((added.into_iter().collect(), aug));
+    }
+    if crate::par::past_deadline() {
+        return Ok(());
+    }
+    // A model with a mode that leaves the data unexplained: its structure refitted from
+    // typical values (an early effect may have absorbed part of a later one).
+    if let Some(t) = typical::refit(current, obs, opts, progress)? {
+        *current = t.aug.spec.clone();
+        found.retain(|f| !t.dropped.contains(f));
+        found.extend(t.added.iter().cloned());
+        versions.push((t.added, t.aug));
+    }
+    if crate::par::past_deadline() {
+        return Ok(());
+    }
+    // A model without a delay whose servo low-pass lags more than the seed's: the delay it may
+    // have absorbed.
+    if let Some(aug) = absorbed_delay::look(current, found, obs, opts, progress)? {
+        *current = aug.spec.clone();
+        found.push("time_delay".to_string());
+        versions.push((vec!["time_delay".to_string()], aug));
+        // With the delay in, the modes may fit better inside their servo (1200041: from 2.77x
+        // the floor as filters to 0.80x).
+        if let Some(aug) = trunk_law(current, obs, opts, progress)? {
+            *current = aug.spec.clone();
+            versions.push((Vec::new(), aug));
+        }
+    }
+    if crate::par::past_deadline() {
+        return Ok(());
+    }
+    // A model that leaves the data unexplained without a play: a play inside its servo, the
+    // law the search reaches only through a play on the command.
+    if let Some(aug) = play_inside::look(current, found, obs, opts, progress)? {
+        *current = aug.spec.clone();
+        found.push("backlash".to_string());
+        versions.push((vec!["backlash".to_string()], aug));
+    }
+    if crate::par::past_deadline() {
+        return Ok(());
+    }
+    // Effects that do nothing in the final model (a delay of zero): no finding.
+    if let Some((names, aug)) = vacuous::take_out(current, found, obs, opts, progress)? {
+        *current = aug.spec.clone();
+        *found = names;
+        versions.push((Vec::new(), aug));
+    }
+    Ok(())
 }
 
 /// The change label of the version `trunk_law` writes.

@@ -13,13 +13,17 @@ pub struct Bounded {
 /// Minimises `|r(theta)|^2` in at most `max_iter` iterations, and up to `extra` more while the
 /// cost still falls by more than 1 % over [`DESCENT_WINDOW`] iterations (a fit in a long
 /// curved valley descends steadily but slowly). `r` returns `None` for parameters it cannot
-/// evaluate (treated as a failed step). Returns the best parameters, the final cost and the
-/// Gauss-Newton covariance diagonal `(J^T J)^{-1}` scaled by the residual variance.
+/// evaluate (treated as a failed step). Once `stop()` says so (a time limit), the fit ends
+/// with the best parameters so far: checked before each iteration and where `r` fails while
+/// the Jacobian is formed (`r` may fail because of the limit). Returns the best parameters,
+/// the final cost and the Gauss-Newton covariance diagonal `(J^T J)^{-1}` scaled by the
+/// residual variance (of the last complete iteration; infinite before the first).
 pub fn minimise(
     theta0: &[Bounded],
     max_iter: usize,
     extra: usize,
     r: &mut dyn FnMut(&[f64]) -> Option<Vec<f64>>,
+    stop: &dyn Fn() -> bool,
 ) -> Option<(Vec<f64>, f64, Vec<f64>)> {
     let n = theta0.len();
     let clamp = |v: &mut [f64]| {
@@ -36,7 +40,7 @@ pub fn minimise(
     // The cost after each iteration, for the descent past `max_iter`.
     let mut costs = vec![cost];
     for iter in 0..max_iter + extra {
-        if iter >= max_iter && !still_descending(&costs) {
+        if (iter >= max_iter && !still_descending(&costs)) || stop() {
             break;
         }
         let m = res.len();
@@ -49,7 +53,12 @@ pub fn minimise(
             }
             let mut tp = theta.clone();
             tp[k] += hstep;
-            let rp = r(&tp)?;
+            let Some(rp) = r(&tp) else {
+                if stop() {
+                    return Some(finish(theta, cost, &jtj, m));
+                }
+                return None;
+            };
             for i in 0..m.min(rp.len()) {
                 jac[(i, k)] = (rp[i] - res[i]) / hstep;
             }
@@ -136,7 +145,7 @@ mod tests {
             min: 0.0,
             max: 10.0,
         };
-        let (p, cost, _) = minimise(&[b(a), b(k)], max_iter, extra, &mut r).unwrap();
+        let (p, cost, _) = minimise(&[b(a), b(k)], max_iter, extra, &mut r, &|| false).unwrap();
         (p, cost)
     }
 
@@ -159,6 +168,7 @@ mod tests {
             50,
             0,
             &mut r,
+            &|| false,
         )
         .unwrap();
         assert_eq!(p[0], 1.0);
@@ -187,8 +197,45 @@ mod tests {
                 min: -5.0,
                 max: 5.0,
             };
-            minimise(&[b(1.0), b(-0.5)], 3, extra, &mut r).unwrap();
+            minimise(&[b(1.0), b(-0.5)], 3, extra, &mut r, &|| false).unwrap();
         }
         assert_eq!(calls[0], calls[1]);
+    }
+
+    #[test]
+    fn a_stop_ends_the_fit_with_the_best_so_far() {
+        // The exponential of `exponential`, stopped once `r` has been called 10 times: `r`
+        // fails from then on (as a fit's residuals do past its time limit), and the fit ends
+        // with what it had, better than the start, short of the minimum, without failing.
+        let t: Vec<f64> = (0..50).map(|k| k as f64 * 0.1).collect();
+        let y: Vec<f64> = t.iter().map(|t| 2.0 * (-1.3 * t).exp()).collect();
+        let calls = std::cell::Cell::new(0);
+        let stopped = || calls.get() >= 10;
+        let mut r = |p: &[f64]| {
+            if stopped() {
+                return None;
+            }
+            calls.set(calls.get() + 1);
+            Some(
+                t.iter()
+                    .zip(&y)
+                    .map(|(t, y)| p[0] * (-p[1] * t).exp() - y)
+                    .collect::<Vec<f64>>(),
+            )
+        };
+        let b = |value| Bounded {
+            value,
+            min: 0.0,
+            max: 10.0,
+        };
+        let start: f64 = t
+            .iter()
+            .zip(&y)
+            .map(|(t, y)| (0.2 * (-3.0 * t).exp() - y).powi(2))
+            .sum();
+        let (p, cost, _) = minimise(&[b(0.2), b(3.0)], 100, 0, &mut r, &stopped).unwrap();
+        assert_eq!(calls.get(), 10);
+        assert!(cost < start && cost > 1e-6, "{cost} from {start}");
+        assert!(p[0] != 0.2 || p[1] != 3.0);
     }
 }

@@ -49,6 +49,12 @@ pub struct DiagnoseOptions {
     /// loop): a model fitted to the data is the right robot however badly the seed's
     /// structure fits it (a long delay swallowed by the low-pass can flip the sign of `a`).
     pub scale_check: bool,
+    /// Wall-clock limit of the diagnosis (and of the loop, `iterate::run_loop`): past it no
+    /// fit evaluates its model again, each ends with its best parameters so far, and the
+    /// work ends with what it has ([`Diagnosis::time_limit_reached`] says so). `None`: no
+    /// limit. A fit whose describing functions come from simulation (a friction beside a play
+    /// inside its servo and a mode) can take seconds per evaluation.
+    pub time_limit: Option<std::time::Duration>,
 }
 
 impl Default for DiagnoseOptions {
@@ -59,6 +65,7 @@ impl Default for DiagnoseOptions {
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
             max_effects: MAX_EFFECTS,
             scale_check: true,
+            time_limit: None,
         }
     }
 }
@@ -119,6 +126,9 @@ pub struct Diagnosis {
     pub final_predictions: Vec<Prediction>,
     /// Every candidate of the first round with its held-out error (what was tried).
     pub tried: Vec<(String, f64)>,
+    /// Whether the time limit ([`DiagnoseOptions::time_limit`]) passed before the search
+    /// ended: the findings are those reached in time.
+    pub time_limit_reached: bool,
 }
 
 /// Steady-state observations of every usable record (the identification's per-record
@@ -317,8 +327,11 @@ pub fn diagnose_observations(
     opts: &DiagnoseOptions,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<Diagnosis, DiagnoseError> {
+    let deadline = opts.time_limit.map(|d| std::time::Instant::now() + d);
     crate::par::with_threads(opts.threads, || {
-        diagnose_observations_in_budget(observations, skipped, model, opts, progress)
+        crate::par::with_deadline(deadline, || {
+            diagnose_observations_in_budget(observations, skipped, model, opts, progress)
+        })
     })
 }
 
@@ -551,6 +564,7 @@ fn diagnose_observations_in_budget(
         final_predictions: current_preds,
         observations,
         tried,
+        time_limit_reached: crate::par::past_deadline(),
     })
 }
 

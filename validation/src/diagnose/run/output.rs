@@ -24,6 +24,7 @@ impl Diagnosis {
             "selected": self.selected.iter().map(|(e, x)| json!({"effect": e, "error_after": x})).collect::<Vec<_>>(),
             "tried": self.tried.iter().map(|(e, x)| json!({"effect": e, "held_out_error": x})).collect::<Vec<_>>(),
             "where_it_fails": self.cells.iter().filter(|c| c.significant).take(12).collect::<Vec<_>>(),
+            "time_limit_reached": self.time_limit_reached,
             "catalogue": CATALOGUE.iter().map(|c| c.effect).collect::<Vec<_>>(),
         })
     }
@@ -69,6 +70,12 @@ impl Diagnosis {
             e => format!("{e} is missing from the model"),
         };
         s.push_str(&format!("Verdict: {verdict}\n"));
+        if self.time_limit_reached {
+            s.push_str(
+                "  (the time limit passed before the search ended: what follows is what it \
+                 reached in time)\n",
+            );
+        }
         for (k, fd) in self.findings.iter().enumerate() {
             s.push_str(&format!(
                 "{}. {}{} [{}]: error {:.4} -> {:.4}{}\n     {}\n",
