@@ -153,8 +153,14 @@ use zmp_validation::par::parallel_map;
 /// its table was not written; of the other 59: singles 20/20, saturation and coupling 6/6,
 /// pairs 10/12, triples 3/3, clean 10/10, outside 2/8, closed 50/51 (worst 1.02x); then
 /// examined: 1220038, a mode-delay pair named as a mode and a sensor low-pass, which led to
-/// those starts adding the delay and the force limit a model lacks).
-const HELD_OUT_FIRST_SEED: u64 = 1_230_000;
+/// those starts adding the delay and the force limit a model lacks); from 1230000 (run on
+/// 12b4bff, the first range with each draw's loop limited to `DRAW_TIME_LIMIT`, 600 s; 16.2
+/// minutes: singles 20/21, saturation and coupling 6/6, pairs 10/12, triples 2/3, clean
+/// 10/10, outside 2/8, closed 51/52 (worst 1.00x), false effect 5/52; misses 1230010, a lone
+/// play named as a friction and a mode, at its time limit, unexplained at 1.65x; 1230027, a
+/// delay beside a play named as the play; 1230037, a friction beside a low-pass named as the
+/// friction; 1230039, the triple's delay named as a friction).
+const HELD_OUT_FIRST_SEED: u64 = 1_240_000;
 /// Development seeds.
 const DEV_FIRST_SEED: u64 = 1;
 

@@ -43,7 +43,10 @@ fn a_loop_past_its_time_limit_ends_with_what_it_reached_and_says_so() {
     // Past the limit a stage still predicts its model once or twice (seconds each here), and
     // the diagnosis it was in finishes its bookkeeping; nothing fits any more. Bound set
     // before the run: three times the limit (the unlimited loop takes over 40 minutes).
-    assert!(took < 3 * limit, "the loop took {took:?} with a limit of {limit:?}");
+    assert!(
+        took < 3 * limit,
+        "the loop took {took:?} with a limit of {limit:?}"
+    );
     // What it reached is a model of the data, scored as any other.
     assert!(r.final_error.is_finite() && r.final_error > 0.0);
     assert!(r.final_error <= r.identified_error);
