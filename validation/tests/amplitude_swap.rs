@@ -52,3 +52,41 @@ fn a_friction_named_play_beside_a_low_pass_is_named_friction() {
         );
     }
 }
+
+/// Spent held-out draws 1220001 and 1230010 (examined after their ranges), lone plays: the
+/// search named a friction first, a mode beside it, then a play, and every later fit on that
+/// model simulated the friction at every record (1220001 ran over 40 minutes in the play's
+/// refit inside its servo; 1230010 reached the suite's 600 s limit unexplained at 1.65x with
+/// the friction and the mode). The play is now tried in the friction's place as soon as the
+/// friction is added (once per loop), and the next round searches on top of it.
+#[test]
+fn a_play_named_friction_first_takes_its_place_before_the_search_goes_on() {
+    let (r, robot) = loop_and_robot(1_220_001, "single:backlash");
+    assert_eq!(r.found, ["backlash"]);
+    assert!(!r.final_model.has("coulomb_friction"));
+    assert!(!r.final_model.has("structural_mode") && !r.final_model.has("flexible_trunk"));
+    // The swap is the version right after the friction's.
+    let changes: Vec<&str> = r.versions.iter().map(|(_, a)| a.change.as_str()).collect();
+    assert_eq!(
+        changes[..2],
+        ["+coulomb_friction", "backlash-for-coulomb_friction"],
+        "{changes:?}"
+    );
+    // Tolerance set after its run (0.91x; the friction, the mode and the play left 0.7x only
+    // after the 40 minutes).
+    indep_loop::assert_final_within(&r, 1.2);
+    assert!(!r.time_limit_reached);
+    let bindings = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
+    for (k, axis) in robot.axes.iter().enumerate() {
+        let width = r
+            .final_model
+            .value("backlash", bindings[k], "width")
+            .expect("a play");
+        let drawn = axis.transmission.as_ref().expect("a drawn play").play;
+        // Tolerance set after its run (fitted 0.73 and 0.85 mm, drawn 0.80 on both).
+        assert!(
+            (width - drawn).abs() <= 0.15 * drawn,
+            "axis {k}: play {width:.5} m against the drawn {drawn:.5}"
+        );
+    }
+}

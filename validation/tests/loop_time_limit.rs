@@ -1,13 +1,14 @@
 //! The loop's time limit (`DiagnoseOptions::time_limit`), on data this project did not make
 //! (`zmp-indep-sim`, no physics code shared with `zmp-models`).
 //!
-//! Spent held-out draw 1220001 (a lone play): the search names a friction, a mode and a play
+//! Spent held-out draw 1220001 (a lone play): the search named a friction, a mode and a play
 //! on the command, and the play tried inside its servo beside the friction and the mode
-//! (`iterate::play_law`) simulates every record at every evaluation, some records for
+//! (`iterate::play_law`) simulated every record at every evaluation, some records for
 //! seconds (stick-slip at 0.5 rad/s that never locks into a cycle). Without a limit that
 //! refit ran for over 40 minutes and held the whole held-out suite; with one, every fit ends
 //! with its best parameters so far once the limit passes, and the loop reports the model it
-//! reached and that the limit passed.
+//! reached and that the limit passed. (The loop now puts the play in the friction's place at
+//! once and ends in 76 s; the limit here is shorter than that.)
 
 #[path = "support/indep_loop.rs"]
 mod indep_loop;
@@ -28,7 +29,7 @@ fn options(limit: Duration) -> DiagnoseOptions {
 #[test]
 fn a_loop_past_its_time_limit_ends_with_what_it_reached_and_says_so() {
     let drawn = indep_loop::drawn_campaign(1_220_001, "single:backlash");
-    let limit = Duration::from_secs(20);
+    let limit = Duration::from_secs(5);
     let t = Instant::now();
     let r = run_loop(
         &drawn.campaign,
@@ -40,11 +41,12 @@ fn a_loop_past_its_time_limit_ends_with_what_it_reached_and_says_so() {
     .unwrap();
     let took = t.elapsed();
     assert!(r.time_limit_reached);
-    // Past the limit a stage still predicts its model once or twice (seconds each here), and
-    // the diagnosis it was in finishes its bookkeeping; nothing fits any more. Bound set
-    // before the run: three times the limit (the unlimited loop takes over 40 minutes).
+    // Past the limit a stage still predicts its model once or twice, and the diagnosis it was
+    // in finishes its bookkeeping; nothing fits any more. Bound set before the run: the limit
+    // and 20 s (the unlimited loop takes 76 s, and took over 40 minutes before the friction
+    // it names first was given the play's place at once: `tests/amplitude_swap.rs`).
     assert!(
-        took < 3 * limit,
+        took < limit + Duration::from_secs(20),
         "the loop took {took:?} with a limit of {limit:?}"
     );
     // What it reached is a model of the data, scored as any other.
