@@ -312,9 +312,12 @@ impl ModelSpec {
         self.sort();
     }
 
-    /// Removes every instance of `kind`.
+    /// Removes every instance of `kind`, and its standard errors (a model written after an
+    /// effect was taken out kept the effect's `stderr` table, held-out draw 1230010's
+    /// `backlash-for-coulomb_friction` version a friction's).
     pub fn remove(&mut self, kind: &str) {
         self.effects.retain(|e| e.info.kind != kind);
+        self.stderr.remove(kind);
     }
 
     /// Every parameter of every effect instance, with its dotted name.

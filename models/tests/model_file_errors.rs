@@ -417,3 +417,21 @@ a11 = 0.01
     round_trip(&spec);
     Plant::new(&spec, 1e-3).unwrap();
 }
+
+#[test]
+fn an_effect_taken_out_takes_its_standard_errors_with_it() {
+    let text = with(
+        "[backlash]\nwidth = 0.001\n\n[stderr.pendulum]\na11 = 0.01\n\n\
+         [stderr.backlash]\nwidth = 0.00002\n",
+    );
+    let mut spec = ModelSpec::parse(&text, FILE).unwrap();
+    assert!(spec.has("backlash") && spec.stderr.contains_key("backlash"));
+    spec.remove("backlash");
+    assert!(!spec.has("backlash"));
+    let written = spec.to_toml();
+    assert!(!written.contains("backlash"), "{written}");
+    // The standard errors of what stays are kept, and the file reads back.
+    assert!(written.contains("[stderr.pendulum]"), "{written}");
+    let back = ModelSpec::parse(&written, FILE).unwrap();
+    assert!(back.stderr.contains_key("pendulum") && !back.stderr.contains_key("backlash"));
+}

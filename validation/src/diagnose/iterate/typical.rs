@@ -327,7 +327,6 @@ fn without_sensor_lowpass(current: &ModelSpec, r: &DataRange) -> Vec<ModelSpec> 
         return Vec::new();
     };
     base.remove(LOWPASS);
-    base.stderr.remove(LOWPASS);
     let axes: Vec<Binding> = Axis::BOTH
         .iter()
         .filter(|a| r.axes_excited[a.index()])

@@ -45,7 +45,6 @@ pub(super) fn take_out(
         let mut without = spec.clone();
         for k in model_kinds(e) {
             without.remove(k);
-            without.stderr.remove(*k);
         }
         if without.effects.len() == spec.effects.len() {
             continue;
