@@ -280,18 +280,25 @@ fn the_loop_moves_the_play_it_found_inside_the_servo() {
     let truth = draw(seed);
     let r = indep_loop::loop_on(seed, SCENARIO);
     assert_eq!(r.found, vec!["backlash".to_string()], "found {:?}", r.found);
-    let last = r.versions.last().expect("a version");
     // Since friction is simulated with the force limit it shares the servo with, the search
     // names a friction here first, and the loop's look at the other amplitude law puts the
-    // play back, fitted inside the servo (change `backlash-for-coulomb_friction`).
+    // play in its place, fitted inside the servo (change `backlash-for-coulomb_friction`), at
+    // once since b9c2e7b; the look at the end of the loop may then fit the play on (`refit`).
+    let changes: Vec<&str> = r.versions.iter().map(|(_, a)| a.change.as_str()).collect();
+    let inside = changes
+        .iter()
+        .position(|c| {
+            [
+                zmp_validation::diagnose::iterate::PLAY_IN_SERVO,
+                "backlash-for-coulomb_friction",
+            ]
+            .contains(c)
+        })
+        .expect("a version that puts the play inside the servo");
+    assert!(inside >= 1, "{changes:?}");
     assert!(
-        [
-            zmp_validation::diagnose::iterate::PLAY_IN_SERVO,
-            "backlash-for-coulomb_friction"
-        ]
-        .contains(&last.1.change.as_str()),
-        "the last version: {}",
-        last.1.change
+        changes[inside + 1..].iter().all(|c| *c == "refit"),
+        "after the play went inside: {changes:?}"
     );
     let ratio = r.final_error / r.noise_floor;
     assert!(
@@ -323,14 +330,21 @@ fn the_loop_moves_the_play_it_found_inside_the_servo() {
         let p = predict(m, &obs).unwrap();
         chi2_total(&obs, &p) / components(&obs) as f64
     };
-    let before = &r.versions[r.versions.len() - 2].1.spec;
+    let (before, moved) = (&r.versions[inside - 1].1, &r.versions[inside].1);
     let line = format!(
-        "- development seed {seed} ({SCENARIO}): the loop names backlash (a play on the command: \
-         {:.2}x the noise floor, {:.2} per residual component), then moves it inside the servo: \
+        "- development seed {seed} ({SCENARIO}): the loop's version `{}` is at {:.2}x the noise \
+         floor ({:.2} per residual component); the play inside the servo (`{}`{}) ends at \
          {ratio:.2}x, {:.2} per component, explained; the plays {:.3} and {:.3} mm against the \
          drawn robot's {:.3} and {:.3} mm.\n",
-        last.1.error_before / last.1.noise_floor,
-        per(before),
+        before.change,
+        moved.error_before / moved.noise_floor,
+        per(&before.spec),
+        moved.change,
+        if inside + 1 < changes.len() {
+            ", then fitted on"
+        } else {
+            ""
+        },
         per(&r.final_model),
         widths[0].0 * 1e3,
         widths[1].0 * 1e3,
