@@ -17,7 +17,9 @@
 mod indep_loop;
 
 use indep_loop::loop_and_robot;
+use zmp_indep_sim::{AxisMechanics, Robot};
 use zmp_models::{Axis, Binding};
+use zmp_validation::diagnose::iterate::LoopResult;
 
 /// Spent held-out draw 1180029 (examined after its range): frictions of 0.17 and 0.25 m/s²
 /// beside a sensor low-pass at 16 and 19 rad/s, in a servo that saturates. The search named a
@@ -33,19 +35,10 @@ fn a_friction_named_play_beside_a_low_pass_is_named_friction() {
     assert_eq!(found, ["coulomb_friction", "sensor_lowpass"]);
     assert!(!r.final_model.has("backlash"));
     indep_loop::assert_final_within(&r, 2.0);
-    let bindings = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
-    for (k, axis) in robot.axes.iter().enumerate() {
-        let level = r
-            .final_model
-            .value("coulomb_friction", bindings[k], "level")
-            .expect("a friction");
-        let drawn = axis.friction.as_ref().expect("a drawn friction").kinetic;
-        // Tolerance set after its run (fitted 0.167 and 0.244 m/s², drawn 0.172 and 0.252).
-        assert!(
-            (level - drawn).abs() <= 0.15 * drawn,
-            "axis {k}: friction {level:.3} m/s2 against the drawn {drawn:.3}"
-        );
-    }
+    // Tolerance set after its run (fitted 0.167 and 0.244 m/s², drawn 0.172 and 0.252).
+    assert_each_axis_within(&r, &robot, "coulomb_friction", "level", 0.15, |axis| {
+        axis.friction.as_ref().expect("a drawn friction").kinetic
+    });
 }
 
 /// Spent held-out draws 1220001 and 1230010 (examined after their ranges), lone plays: the
@@ -71,17 +64,32 @@ fn a_play_named_friction_first_takes_its_place_before_the_search_goes_on() {
     // after the 40 minutes).
     indep_loop::assert_final_within(&r, 1.2);
     assert!(!r.time_limit_reached);
+    // Tolerance set after its run (fitted 0.73 and 0.85 mm, drawn 0.80 on both).
+    assert_each_axis_within(&r, &robot, "backlash", "width", 0.15, |axis| {
+        axis.transmission.as_ref().expect("a drawn play").play
+    });
+}
+
+/// Asserts that `kind.param` of the loop's final model lies within `tol` (relative) of the
+/// drawn robot's value (`drawn` of its axis) on both axes.
+fn assert_each_axis_within(
+    r: &LoopResult,
+    robot: &Robot,
+    kind: &str,
+    param: &str,
+    tol: f64,
+    drawn: impl Fn(&AxisMechanics) -> f64,
+) {
     let bindings = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
     for (k, axis) in robot.axes.iter().enumerate() {
-        let width = r
+        let got = r
             .final_model
-            .value("backlash", bindings[k], "width")
-            .expect("a play");
-        let drawn = axis.transmission.as_ref().expect("a drawn play").play;
-        // Tolerance set after its run (fitted 0.73 and 0.85 mm, drawn 0.80 on both).
+            .value(kind, bindings[k], param)
+            .unwrap_or_else(|| panic!("axis {k}: no {kind}.{param}"));
+        let want = drawn(axis);
         assert!(
-            (width - drawn).abs() <= 0.15 * drawn,
-            "axis {k}: play {width:.5} m against the drawn {drawn:.5}"
+            (got - want).abs() <= tol * want,
+            "axis {k}: {kind}.{param} {got:.5} against the drawn {want:.5}"
         );
     }
 }
