@@ -12,9 +12,13 @@
 //! response, `sensor_drift` from its exact first-harmonic projection `2|rate|/ω`, nonlinear
 //! ones by noise-free simulation of each (axis, amplitude, frequency) at the first operating
 //! point over the design's transient and one period (a change counts for every operating
-//! point: the mechanics do not depend on it). The size quantile is drawn U(0, 1) and, while
-//! the effect is invisible, redrawn U(q, 1) (8 draws at most, the last at q = 1); an effect
-//! still invisible is kept and reported with `visible = false`.
+//! point: the mechanics do not depend on it). An effect outside the catalogue must also be
+//! visible, by the same rule, against its catalogue form with the same parameters
+//! (`EffectParams::catalogue_counterparts`: the linear transmission of a cubic stiffness, the
+//! Coulomb friction at a Stribeck friction's kinetic and at its static level, the first of two
+//! modes): what puts it outside the catalogue must show. The size quantile is drawn U(0, 1)
+//! and, while the effect is invisible, redrawn U(q, 1) (8 draws at most, the last at q = 1);
+//! an effect still invisible is kept and reported with `visible = false`.
 
 use crate::design::Design;
 use crate::integrate::simulate_records;
@@ -108,24 +112,34 @@ pub fn draw_with(seed: u64, scenario: &Scenario, design: &Design, options: &Draw
             let mut candidate = base.clone();
             params.install(&mut candidate);
             let vis = visibility(effect, &base, &candidate, design, &mut probe_cache);
-            let visible = vis.visible;
-            chosen = Some((params, vis));
+            let beyond = params
+                .catalogue_counterparts(effect)
+                .into_iter()
+                .map(|cp| {
+                    let mut without = base.clone();
+                    cp.install(&mut without);
+                    visibility(effect, &without, &candidate, design, &mut None)
+                })
+                .min_by_key(|v| v.records);
+            let visible = vis.visible && beyond.is_none_or(|b| b.visible);
+            chosen = Some((params, vis, beyond, visible));
             if visible {
                 break;
             }
             q_lo = q;
         }
-        let (params, vis) = chosen.expect("at least one attempt");
+        let (params, vis, beyond, visible) = chosen.expect("at least one attempt");
         params.install(&mut robot);
         robot.hidden.push(HiddenEffect {
             effect,
             name: effect.name().into(),
             in_catalogue: effect.in_catalogue(),
             nearest_catalogue: effect.nearest_catalogue().map(|e| e.name().into()),
-            visible: vis.visible,
+            visible,
             max_sigmas: vis.max_sigmas,
             max_relative: vis.max_relative,
             records_visible: vis.records,
+            records_visible_beyond_catalogue: beyond.map(|b| b.records),
         });
     }
     robot.name = format!("zmp-indep-sim draw {seed} ({scenario})");
@@ -246,6 +260,42 @@ enum EffectParams {
 }
 
 impl EffectParams {
+    /// For an effect outside the catalogue, the catalogue forms of the same element with the
+    /// same parameters but without what puts it outside: a cubic stiffness's linear
+    /// transmission, a Stribeck friction's Coulomb friction at its kinetic and at its static
+    /// level, a second structural mode's first mode alone. What makes the effect outside the
+    /// catalogue is visible when it is visible against each of them. Empty for catalogue
+    /// effects and for the rate-limited servo (its nearest catalogue effect, the acceleration
+    /// limit, has no parameter in common with it).
+    fn catalogue_counterparts(&self, effect: Effect) -> Vec<EffectParams> {
+        match (effect, self) {
+            (Effect::CubicStiffness, EffectParams::Transmission(t)) => {
+                let mut linear = t.clone();
+                linear
+                    .iter_mut()
+                    .for_each(|t| t.hardening_deflection = None);
+                vec![EffectParams::Transmission(linear)]
+            }
+            (Effect::StribeckFriction, EffectParams::Friction(f)) => {
+                let coulomb = |level: fn(&Friction) -> f64| {
+                    EffectParams::Friction(f.clone().map(|f| Friction {
+                        kinetic: level(&f),
+                        static_level: level(&f),
+                        stribeck_velocity: None,
+                    }))
+                };
+                vec![coulomb(|f| f.kinetic), coulomb(|f| f.static_level)]
+            }
+            (Effect::SecondStructuralMode, EffectParams::Modes(m)) => {
+                vec![EffectParams::Modes(m.clone().map(|mut m| {
+                    m.truncate(1);
+                    m
+                }))]
+            }
+            _ => Vec::new(),
+        }
+    }
+
     fn install(&self, r: &mut Robot) {
         match self {
             EffectParams::Delay(d) => (0..2).for_each(|k| r.axes[k].command_delay = d[k]),
@@ -365,8 +415,10 @@ fn draw_effect(
             }))
         }
         Effect::CubicStiffness => EffectParams::Transmission([0, 1].map(|k| {
-            let omega = rng.gen_range(45.0..90.0);
-            let deflection = demand(servo(k), design, 2) / (omega * omega);
+            let omega = rng.gen_range(20.0..40.0);
+            // The largest acceleration the servo reaches: the hardening acts below the limit.
+            let reached = demand(servo(k), design, 2).min(servo(k).accel_limit);
+            let deflection = reached / (omega * omega);
             Transmission {
                 play: 0.0,
                 omega,

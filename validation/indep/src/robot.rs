@@ -209,7 +209,8 @@ pub struct HiddenEffect {
     /// For an out-of-catalogue effect, the closest catalogue effect.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub nearest_catalogue: Option<String>,
-    /// Whether it passed the visibility test of `draw` on the design it was drawn for.
+    /// Whether it passed the visibility test of `draw` on the design it was drawn for (for an
+    /// outside effect, against its catalogue form too: `records_visible_beyond_catalogue`).
     pub visible: bool,
     /// Largest first-harmonic change of a record, in first-harmonic noise std.
     pub max_sigmas: f64,
@@ -217,6 +218,12 @@ pub struct HiddenEffect {
     pub max_relative: f64,
     /// Records of the design whose first harmonic the effect changes visibly.
     pub records_visible: usize,
+    /// For an effect outside the catalogue with a catalogue form (all but the rate-limited
+    /// servo), the records whose first harmonic it changes visibly against that form with the
+    /// same parameters (the fewest over the forms): what puts it outside the catalogue must be
+    /// visible too.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub records_visible_beyond_catalogue: Option<usize>,
 }
 
 /// Every truth parameter of one simulated robot.

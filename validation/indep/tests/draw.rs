@@ -121,6 +121,15 @@ fn every_effect_draws_a_valid_visible_robot_within_its_ranges() {
             "{h:?}"
         );
         assert_eq!(r.has_outside_effect(), !effect.in_catalogue());
+        match effect {
+            Effect::CubicStiffness | Effect::StribeckFriction | Effect::SecondStructuralMode => {
+                assert!(
+                    h.records_visible_beyond_catalogue.unwrap() >= 3,
+                    "{effect}: not visible against its catalogue form: {h:?}"
+                )
+            }
+            _ => assert_eq!(h.records_visible_beyond_catalogue, None, "{effect}"),
+        }
         let ax = &r.axes;
         match effect {
             Effect::TimeDelay => assert!(ax.iter().all(|a| within(a.command_delay, 0.010, 0.150))),
@@ -161,9 +170,14 @@ fn every_effect_draws_a_valid_visible_robot_within_its_ranges() {
             Effect::SecondStructuralMode => assert!(ax.iter().all(|a| {
                 a.modes.len() == 2 && within(a.modes[1].omega / a.modes[0].omega, 1.5, 2.5)
             })),
-            Effect::CubicStiffness => assert!(ax.iter().all(|a| {
-                let t = a.transmission.as_ref().unwrap();
-                t.play == 0.0 && within(t.omega, 45.0, 90.0) && t.hardening_deflection.is_some()
+            Effect::CubicStiffness => assert!((0..2).all(|k| {
+                let t = ax[k].transmission.as_ref().unwrap();
+                // The stiffness at least doubles within the deflection of the largest
+                // acceleration the servo reaches (the demand, or the limit if lower).
+                let reached = demand(&r, k, 2).min(ax[k].servo.accel_limit);
+                t.play == 0.0
+                    && within(t.omega, 20.0, 40.0)
+                    && t.hardening_deflection.unwrap() <= reached / t.omega.powi(2) * (1.0 + 1e-12)
             })),
             Effect::SensorLowpass => {
                 assert!(r.sensor.lowpass_cutoff.unwrap().iter().all(|&c| within(
@@ -336,5 +350,29 @@ fn the_coupling_form_can_be_chosen() {
         ));
         assert!(inertial.hidden[0].visible && pendulum.hidden[0].visible);
         assert_eq!(inertial.pendulum, pendulum.pendulum);
+    }
+}
+
+/// What puts an outside effect outside the catalogue must show: each of these draws is
+/// visible against its catalogue form with the same parameters (the linear transmission, the
+/// Coulomb friction at the kinetic and at the static level). Without the rule, held-out seed
+/// 1230053's Stribeck friction kept its first size, visible against no friction but changing
+/// no record visibly against a Coulomb friction (measured when the rule was written).
+#[test]
+fn outside_effects_are_visible_against_their_catalogue_forms() {
+    for (seed, effect) in [
+        (1_230_053, Effect::StribeckFriction),
+        (1_230_057, Effect::StribeckFriction),
+        (54, Effect::StribeckFriction),
+        (1_230_055, Effect::CubicStiffness),
+        (1_230_059, Effect::CubicStiffness),
+    ] {
+        let r = draw(seed, &Scenario::Outside { effect, with: None });
+        let h = &r.hidden[0];
+        assert!(h.visible, "{seed} {effect}: {h:?}");
+        assert!(
+            h.records_visible_beyond_catalogue.unwrap() >= 3,
+            "{seed} {effect}: {h:?}"
+        );
     }
 }
