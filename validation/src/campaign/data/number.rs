@@ -200,6 +200,21 @@ mod tests {
             proptest::prop_assert_eq!(fast.map(f64::to_bits), std.map(f64::to_bits), "{:?}", s);
         }
 
+        /// The prefix parse as the record parser calls it, with the rest of the file after
+        /// the number: the bits `std` reads from the number alone, and the number's length.
+        #[test]
+        fn prefix_parse_agrees_with_std_before_more_text(
+            s in "-?[0-9]{1,20}(\\.[0-9]{1,20})?",
+            rest in "[,\n0-9.e-]{0,12}",
+        ) {
+            let std = s.parse::<f64>().ok().filter(|v| v.is_finite());
+            let mut text = s.clone();
+            text.push(',');
+            text.push_str(&rest);
+            let got = fast_f64_prefix(text.as_bytes());
+            proptest::prop_assert_eq!(got.map(|(v, len)| (v.to_bits(), len)), std.map(|v| (v.to_bits(), s.len())), "{:?}", text);
+        }
+
         #[test]
         fn fast_path_agrees_with_std_on_written_values(bits in proptest::prelude::any::<u64>()) {
             let v = f64::from_bits(bits);
