@@ -34,12 +34,30 @@ fn main() -> anyhow::Result<()> {
         std::fs::write(format!("{keep}.truth.json"), robot.to_json())?;
     }
     let camp = read_campaign(&camp_dir)?;
+    // As the blind suites run a draw (one thread, their time limit) when
+    // ZMP_DRAW_TIME_LIMIT gives the limit in seconds.
+    let limit = std::env::var("ZMP_DRAW_TIME_LIMIT")
+        .ok()
+        .map(|s| s.parse::<f64>())
+        .transpose()?;
+    let one = limit.is_some();
     let t = std::time::Instant::now();
     let r = run_loop(
         &camp,
         None,
-        &IdentifyOptions::default(),
-        &DiagnoseOptions::default(),
+        &IdentifyOptions {
+            threads: one.then_some(1),
+            ..IdentifyOptions::default()
+        },
+        &DiagnoseOptions {
+            threads: if one {
+                1
+            } else {
+                DiagnoseOptions::default().threads
+            },
+            time_limit: limit.map(std::time::Duration::from_secs_f64),
+            ..DiagnoseOptions::default()
+        },
         &|what| eprintln!("{:7.1} s  {what}", t.elapsed().as_secs_f64()),
     )?;
     for w in &r.identification.warnings {

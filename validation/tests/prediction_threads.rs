@@ -7,10 +7,10 @@
 use zmp_models::{Axis, Binding};
 use zmp_validation::blind::paper;
 use zmp_validation::diagnose::candidates::add_effect;
-use zmp_validation::diagnose::measure::predict;
+use zmp_validation::diagnose::measure::{predict, predict_in_time, predict_until};
 use zmp_validation::diagnose::observe::Observation;
 use zmp_validation::diagnose::run::observe_campaign;
-use zmp_validation::par::{budget, parallel_map, with_threads};
+use zmp_validation::par::{budget, parallel_map, with_deadline, with_threads};
 use zmp_validation::virtual_robot::{logspace, simulate_campaign, ExperimentDesign};
 
 #[test]
@@ -64,4 +64,59 @@ fn predictions_do_not_depend_on_the_thread_budget() {
     // the caller's whole budget again.
     let inner = with_threads(2, || parallel_map(3, 2, |_| budget()));
     assert!(inner.iter().all(|b| (1..=2).contains(b)), "{inner:?}");
+}
+
+/// A fit's prediction stops once the time limit of its work has passed, checked before each
+/// record, so that one evaluation of a slow model cannot run far past the limit (held-out draw
+/// 1240030, limited to 600 s, ended after 809 s inside one evaluation of a model with a
+/// friction); before the limit it predicts exactly what `predict` does.
+#[test]
+fn a_prediction_in_time_stops_at_the_limit_record_by_record() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::time::{Duration, Instant};
+    let axes = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
+    let design = ExperimentDesign {
+        operating_points: vec![[0.0, 0.0]],
+        amplitudes: vec![0.003, 0.008],
+        omegas: logspace(0.5, 12.0, 5),
+        ..ExperimentDesign::reference()
+    };
+    let camp = simulate_campaign(&paper(), &design).unwrap();
+    let (obs, _) = observe_campaign(&camp, 2);
+    let refs: Vec<&Observation> = obs.iter().collect();
+    assert!(refs.len() >= 12, "{} observations", refs.len());
+    let mut model = paper();
+    add_effect(&mut model, "coulomb_friction", &axes, &[0.05]);
+    let bits = |p: &[zmp_validation::diagnose::measure::Prediction]| -> Vec<u64> {
+        p.iter()
+            .flat_map(|p| (0..2).flat_map(move |i| [p.g[i].re, p.g[i].im].map(f64::to_bits)))
+            .collect()
+    };
+    let all = bits(&predict(&model, &refs).unwrap());
+    for threads in [1, 2] {
+        with_threads(threads, || {
+            let past = Instant::now() - Duration::from_millis(1);
+            let stopped = with_deadline(Some(past), || predict_in_time(&model, &refs)).unwrap();
+            assert!(
+                stopped.is_none(),
+                "{threads} threads: predicted past the limit"
+            );
+            let later = Instant::now() + Duration::from_secs(3600);
+            let p = with_deadline(Some(later), || predict_in_time(&model, &refs))
+                .unwrap()
+                .expect("within the limit");
+            assert_eq!(bits(&p), all, "{threads} threads");
+            assert!(
+                predict_in_time(&model, &refs).unwrap().is_some(),
+                "no limit"
+            );
+        });
+    }
+    // Record by record: a stop that turns true before the fourth record is asked four times
+    // on one thread, not once per prediction and not once per record to the end.
+    let asked = AtomicUsize::new(0);
+    let stop = || asked.fetch_add(1, Ordering::Relaxed) >= 3;
+    let stopped = with_threads(1, || predict_until(&model, &refs, &stop)).unwrap();
+    assert!(stopped.is_none());
+    assert_eq!(asked.load(Ordering::Relaxed), 4);
 }

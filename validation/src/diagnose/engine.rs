@@ -21,7 +21,9 @@ use super::candidates::{
     DataRange, Free, Start, CATALOGUE,
 };
 use super::lm::{minimise, Bounded};
-use super::measure::{chi2_total, predict, score, whitened, RecordScore, COMPONENTS};
+use super::measure::{
+    chi2_total, predict, predict_in_time, score, whitened, RecordScore, COMPONENTS,
+};
 use super::observe::Observation;
 use std::collections::BTreeMap;
 use zmp_models::{Axis, Binding, ModelSpec};
@@ -110,13 +112,13 @@ fn fit_descending(
     let theta0: Vec<Bounded> = frees.iter().map(|f| f.bounds).collect();
     let mut work = start.clone();
     let mut r = |theta: &[f64]| -> Option<Vec<f64>> {
-        // Past the time limit of the work it serves (`par::with_deadline`), no evaluation:
-        // the fit ends with its best so far.
+        // Past the time limit of the work it serves (`par::with_deadline`), no evaluation,
+        // and none finished (`predict_in_time`): the fit ends with its best so far.
         if crate::par::past_deadline() {
             return None;
         }
         apply(&mut work, frees, theta);
-        let p = predict(&work, obs).ok()?;
+        let p = predict_in_time(&work, obs).ok()??;
         let mut out = Vec::with_capacity(obs.len() * COMPONENTS);
         for (o, pr) in obs.iter().zip(&p) {
             whitened(o, pr, &mut out);
