@@ -302,6 +302,32 @@ impl DiscreteLti {
 
 /// A bound on the slowest time constant of a stable denominator, from its roots' real parts
 /// (the roots are found as eigenvalues of the companion matrix).
+/// QR sweeps [`eigenvalues`] allows per dimension: the shifted QR iteration deflates an
+/// eigenvalue in two or three sweeps.
+const MAX_SWEEPS_PER_DIM: usize = 100;
+
+/// The eigenvalues of a square matrix, or `None` when an entry is not finite or the QR
+/// iteration does not converge within [`MAX_SWEEPS_PER_DIM`] sweeps per dimension.
+/// nalgebra's `complex_eigenvalues` iterates without a limit: on a matrix with a NaN (a
+/// fit's parameters at an edge, a simulated orbit that blew up) it never returns, and a
+/// diagnosis held by it ignored its time limit (held-out draw 1240001).
+pub fn eigenvalues(a: &DMatrix<f64>) -> Option<Vec<Complex64>> {
+    if !a.is_square() || !a.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let sweeps = MAX_SWEEPS_PER_DIM * a.nrows().max(1);
+    let schur = nalgebra::linalg::Schur::try_new(a.clone(), f64::EPSILON, sweeps)?;
+    let eig: Vec<Complex64> = schur.complex_eigenvalues().iter().copied().collect();
+    eig.iter()
+        .all(|z| z.re.is_finite() && z.im.is_finite())
+        .then_some(eig)
+}
+
+/// The largest eigenvalue modulus of a square matrix (see [`eigenvalues`] for `None`).
+pub fn spectral_radius(a: &DMatrix<f64>) -> Option<f64> {
+    Some(eigenvalues(a)?.iter().map(|z| z.norm()).fold(0.0, f64::max))
+}
+
 pub fn slowest_time_constant(den: &Poly) -> f64 {
     let n = den.degree();
     if n == 0 {
@@ -315,7 +341,10 @@ pub fn slowest_time_constant(den: &Poly) -> f64 {
     for i in 0..n {
         a[(i, n - 1)] = -den.0[i] / lead;
     }
-    let eig = a.complex_eigenvalues();
+    // Not known (not finite, or no convergence): as slow as an unstable pole.
+    let Some(eig) = eigenvalues(&a) else {
+        return f64::INFINITY;
+    };
     eig.iter()
         .map(|l| {
             if l.re < 0.0 {
@@ -330,6 +359,64 @@ pub fn slowest_time_constant(den: &Poly) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Runs `f` on its own thread and fails if it has not returned within ten seconds (a hang
+    /// becomes a failure, not a stuck test run).
+    fn within_ten_seconds<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> T {
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let _ = tx.send(f());
+        });
+        rx.recv_timeout(std::time::Duration::from_secs(10))
+            .expect("returned within ten seconds")
+    }
+
+    #[test]
+    fn eigenvalues_of_a_matrix_with_a_nan_are_none_not_a_hang() {
+        // nalgebra's unbounded QR iteration never returns on such a matrix of three rows or
+        // more (a 2x2 is solved in closed form).
+        let mut a = DMatrix::from_fn(3, 3, |i, j| 0.1 * (i as f64 + 1.0) - 0.05 * j as f64);
+        a[(1, 0)] = f64::NAN;
+        assert_eq!(within_ten_seconds(move || eigenvalues(&a)), None);
+        let mut b = DMatrix::from_fn(4, 4, |i, j| if i == j { 0.5 } else { 0.01 });
+        b[(2, 3)] = f64::INFINITY;
+        assert_eq!(within_ten_seconds(move || spectral_radius(&b)), None);
+    }
+
+    #[test]
+    fn eigenvalues_are_those_of_the_matrix() {
+        // A rotation scaled by 0.9 (eigenvalues 0.9 e^{+-i 0.3}) and a real 2x2 block.
+        let (r, th) = (0.9f64, 0.3f64);
+        let a = DMatrix::from_row_slice(
+            3,
+            3,
+            &[
+                r * th.cos(),
+                -r * th.sin(),
+                0.0,
+                r * th.sin(),
+                r * th.cos(),
+                0.0,
+                0.0,
+                0.0,
+                -0.5,
+            ],
+        );
+        let mut eig = eigenvalues(&a).expect("finite");
+        eig.sort_by(|x, y| x.im.total_cmp(&y.im));
+        let want = [
+            Complex64::from_polar(r, -th),
+            Complex64::new(-0.5, 0.0),
+            Complex64::from_polar(r, th),
+        ];
+        for (g, w) in eig.iter().zip(want) {
+            assert!((g - w).norm() < 1e-12, "{g} against {w}");
+        }
+        assert!((spectral_radius(&a).unwrap() - r).abs() < 1e-12);
+        // The companion matrix of (s + 1)(s + 4): time constants 1 s and 0.25 s.
+        let den = Poly::new(&[4.0, 5.0, 1.0]);
+        assert!((slowest_time_constant(&den) - 1.0).abs() < 1e-12);
+    }
 
     #[test]
     fn first_order_step_matches_exponential() {

@@ -358,11 +358,7 @@ fn periodic_fixed_point(s: &[Vec<f64>]) -> Option<(Vec<f64>, f64)> {
         return None;
     }
     let j = &d1 * d0.try_inverse()?;
-    let radius = j
-        .complex_eigenvalues()
-        .iter()
-        .map(|z| z.norm())
-        .fold(0.0, f64::max);
+    let radius = crate::lti::spectral_radius(&j)?;
     if radius.is_nan() || radius >= 0.95 {
         return None;
     }
