@@ -300,8 +300,6 @@ impl DiscreteLti {
     }
 }
 
-/// A bound on the slowest time constant of a stable denominator, from its roots' real parts
-/// (the roots are found as eigenvalues of the companion matrix).
 /// QR sweeps [`eigenvalues`] allows per dimension: the shifted QR iteration deflates an
 /// eigenvalue in two or three sweeps.
 const MAX_SWEEPS_PER_DIM: usize = 100;
@@ -328,6 +326,8 @@ pub fn spectral_radius(a: &DMatrix<f64>) -> Option<f64> {
     Some(eigenvalues(a)?.iter().map(|z| z.norm()).fold(0.0, f64::max))
 }
 
+/// A bound on the slowest time constant of a stable denominator, from its roots' real parts
+/// (the roots are found as eigenvalues of the companion matrix).
 pub fn slowest_time_constant(den: &Poly) -> f64 {
     let n = den.degree();
     if n == 0 {

@@ -359,7 +359,7 @@ fn periodic_fixed_point(s: &[Vec<f64>]) -> Option<(Vec<f64>, f64)> {
     }
     let j = &d1 * d0.try_inverse()?;
     let radius = crate::lti::spectral_radius(&j)?;
-    if radius.is_nan() || radius >= 0.95 {
+    if radius >= 0.95 {
         return None;
     }
     // (I - J) s* = s_{n+1} - J s_n.
