@@ -7,11 +7,11 @@
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use std::time::Duration;
+use zmp_campaign::Campaign;
+use zmp_diagnose::{diagnose, DiagnoseOptions};
+use zmp_identify::{identify, IdentifyOptions};
 use zmp_models::{lookup, Axis, Binding, EffectInstance, ModelSpec};
-use zmp_validation::campaign::Campaign;
-use zmp_validation::diagnose::{diagnose, DiagnoseOptions};
-use zmp_validation::identify::{identify, IdentifyOptions};
-use zmp_validation::virtual_robot::{simulate_campaign, ExperimentDesign};
+use zmp_virtual_robot::{simulate_campaign, ExperimentDesign};
 
 fn robot(effects: &[(&str, Binding, Vec<f64>)]) -> (Campaign, ModelSpec) {
     let mut spec = ModelSpec::parse(

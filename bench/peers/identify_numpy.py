@@ -1,5 +1,5 @@
 """The identification pipeline written the way a competent numpy user would, as the speed peer
-of `cargo xtask identify` and `zmp_validation::identify` (bench/benches/identify.rs and
+of `cargo xtask identify` and `zmp_identify` (bench/benches/identify.rs and
 bench/benches/commands.rs run both in the same run).
 
 Fair by construction: the CSV records are read by pyarrow's multithreaded C++ reader, the

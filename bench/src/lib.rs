@@ -152,10 +152,10 @@ pub fn report_peer(name: &str, ours_s: f64, peer_s: f64, unit: &str, note: &str)
 #[cfg(feature = "pipeline")]
 pub mod identify {
     use std::path::{Path, PathBuf};
+    use zmp_campaign::{read_manifest, write_campaign};
+    use zmp_identify::{analyse_folder, identify_analysed, IdentifyOptions};
     use zmp_models::{Axis, Binding, EffectInstance, ModelSpec};
-    use zmp_validation::campaign::{read_manifest, write_campaign};
-    use zmp_validation::identify::{analyse_folder, identify_analysed, IdentifyOptions};
-    use zmp_validation::virtual_robot::{simulate_campaign, ExperimentDesign};
+    use zmp_virtual_robot::{simulate_campaign, ExperimentDesign};
 
     /// Simulates the reference virtual SILO2 campaign (paper model with an acceleration limit
     /// of 1.2 m/s2) and writes it to `parent/virtual-silo2`; returns that folder.

@@ -5,13 +5,12 @@
 //! amplitudes × 4 frequencies × 2 excited channels = 16 records (about 35k rows).
 
 use std::path::{Path, PathBuf};
+use zmp_campaign::{read_manifest, write_campaign, Campaign};
+use zmp_diagnose::{diagnose, DiagnoseOptions, Diagnosis};
+use zmp_identify::{analyse_folder, identify_analysed, Identification, IdentifyOptions};
+use zmp_models::logspace;
 use zmp_models::{lookup, Axis, Binding, EffectInstance, ModelSpec};
-use zmp_validation::campaign::{read_manifest, write_campaign, Campaign};
-use zmp_validation::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
-use zmp_validation::identify::{
-    analyse_folder, identify_analysed, Identification, IdentifyOptions,
-};
-use zmp_validation::virtual_robot::{logspace, simulate_campaign, ExperimentDesign};
+use zmp_virtual_robot::{simulate_campaign, ExperimentDesign};
 
 /// Name of the campaign folder that [`write`] creates.
 pub const CAMPAIGN: &str = "small-campaign";

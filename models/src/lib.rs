@@ -18,6 +18,7 @@ pub mod walking;
 
 pub use axis::{Axis, Channel};
 pub use effect::{lookup, Binding, Effect, EffectInfo, ParamSpec, Site, REGISTRY};
+pub use lti::logspace;
 pub use model_file::{EffectInstance, ModelError, ModelSpec, MODEL_FORMAT};
 pub use num_complex::Complex64;
 pub use plant::{Plant, PlantOutput, DEFAULT_STEP};

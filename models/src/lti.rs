@@ -356,6 +356,15 @@ pub fn slowest_time_constant(den: &Poly) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// `n` log-spaced values from `lo` to `hi` (a frequency grid, both ends included).
+pub fn logspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    if n == 1 {
+        return vec![lo];
+    }
+    (0..n)
+        .map(|k| lo * (hi / lo).powf(k as f64 / (n - 1) as f64))
+        .collect()
+}
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,7 +5,7 @@
 //! play integrated independently here; and the play must act as one: a sine inside the play
 //! barely moves the trunk, a large one is the engaged loop's linear response. Whether the law
 //! is the physical one is tested against an independently written simulator in
-//! `validation/tests/play_in_servo.rs`.
+//! `validation/suites/tests/play_in_servo.rs`.
 
 use std::f64::consts::PI;
 use zmp_models::{Axis, Channel, ModelSpec, Plant};

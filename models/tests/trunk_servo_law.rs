@@ -3,7 +3,7 @@
 //! (`in_servo = 0`); where the
 //! limit acts, the describing response (the two-body loop's periodic first harmonic) is what
 //! the plant's own time steps give. Whether the law is the physical one is tested against an
-//! independently written simulator in `validation/tests/trunk_in_servo.rs`.
+//! independently written simulator in `validation/suites/tests/trunk_in_servo.rs`.
 
 use num_complex::Complex64;
 use std::f64::consts::PI;

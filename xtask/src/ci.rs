@@ -1,7 +1,8 @@
 //! `cargo xtask ci`: what CI runs (via `.ci/run`), and what to run locally
 //! before pushing. Installs the prerequisites, then format check, clippy,
-//! the whole test suite and the instruction-count gate of `cargo xtask bench`,
-//! failing fast.
+//! the test suite, the book's link check and the instruction-count gate of
+//! `cargo xtask bench`, failing fast. `--long` adds the long suites CI leaves
+//! out (tests ignored with a reason starting `long:`).
 
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -31,10 +32,28 @@ const STEPS: &[(&str, &[&str])] = &[
     ("test", &["test", "--workspace", "--release"]),
 ];
 
-/// Run setup, then `cargo fmt --check`, `cargo clippy -D warnings`,
-/// `cargo test` and the instruction-count gate, in that order, with the prerequisites' environment; stop at
-/// the first failing step. Prints the elapsed time of each step at the end.
-pub fn ci() -> Result<()> {
+/// The long suites (`cargo xtask ci --long`): every ignored test but the blind suites' held-out
+/// and development ranges, which are run by hand (a held-out range is run once).
+const LONG: (&str, &[&str]) = (
+    "long",
+    &[
+        "test",
+        "--workspace",
+        "--release",
+        "--",
+        "--ignored",
+        "--skip",
+        "held_out_blind_suite",
+        "--skip",
+        "development_blind_suite",
+    ],
+);
+
+/// Run setup, then `cargo fmt --check`, `cargo clippy -D warnings`, `cargo test`, the link
+/// check and the instruction-count gate, in that order, with the prerequisites' environment
+/// (and with `long` the long suites last); stop at the first failing step. Prints the elapsed
+/// time of each step at the end.
+pub fn ci(long: bool) -> Result<()> {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let root = repo_root();
     let mut timings: Vec<(&str, Duration, bool)> = Vec::new();
@@ -51,25 +70,16 @@ pub fn ci() -> Result<()> {
     };
 
     for &(name, args) in STEPS {
-        eprintln!("\nci: ==> {name}: cargo {}", args.join(" "));
-        let mut cmd = Command::new(&cargo);
-        cmd.args(args).current_dir(&root).stdin(Stdio::null());
-        strip_cargo_run_env(&mut cmd);
-        apply_env(&mut cmd, &prereqs);
-        let start = Instant::now();
-        let status = cmd
-            .status()
-            .with_context(|| format!("ci: could not start cargo for step `{name}`"));
-        let ok = matches!(&status, Ok(s) if s.success());
-        timings.push((name, start.elapsed(), ok));
-        if !ok {
-            print_timings(&timings);
-            let status = status?;
-            bail!(
-                "ci: step `{name}` failed ({status}): cargo {}",
-                args.join(" ")
-            );
-        }
+        run_step(&cargo, &root, &prereqs, name, args, &mut timings)?;
+    }
+
+    eprintln!("\nci: ==> links: relative links and anchors of README.md and docs/");
+    let start = Instant::now();
+    let links = crate::links::check_repository(&root);
+    timings.push(("links", start.elapsed(), links.is_ok()));
+    if let Err(e) = links {
+        print_timings(&timings);
+        return Err(e.context("ci: step `links` failed"));
     }
 
     // The instruction-count gate (`cargo xtask bench --counts-only`): after the tests, whose
@@ -86,8 +96,44 @@ pub fn ci() -> Result<()> {
         return Err(e.context("ci: step `bench-gate` failed"));
     }
 
+    if long {
+        run_step(&cargo, &root, &prereqs, LONG.0, LONG.1, &mut timings)?;
+    }
+
     print_timings(&timings);
     eprintln!("ci: all steps passed");
+    Ok(())
+}
+
+/// One cargo step with the prerequisites' environment; its time goes into `timings`, and a
+/// failure prints them and names the step.
+fn run_step(
+    cargo: &std::ffi::OsStr,
+    root: &std::path::Path,
+    prereqs: &crate::env::Prereqs,
+    name: &'static str,
+    args: &[&str],
+    timings: &mut Vec<(&'static str, Duration, bool)>,
+) -> Result<()> {
+    eprintln!("\nci: ==> {name}: cargo {}", args.join(" "));
+    let mut cmd = Command::new(cargo);
+    cmd.args(args).current_dir(root).stdin(Stdio::null());
+    strip_cargo_run_env(&mut cmd);
+    apply_env(&mut cmd, prereqs);
+    let start = Instant::now();
+    let status = cmd
+        .status()
+        .with_context(|| format!("ci: could not start cargo for step `{name}`"));
+    let ok = matches!(&status, Ok(s) if s.success());
+    timings.push((name, start.elapsed(), ok));
+    if !ok {
+        print_timings(timings);
+        let status = status?;
+        bail!(
+            "ci: step `{name}` failed ({status}): cargo {}",
+            args.join(" ")
+        );
+    }
     Ok(())
 }
 

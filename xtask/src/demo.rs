@@ -4,15 +4,16 @@ use crate::simulate::{load_model, simulate};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
+use zmp_files::atomic_write;
 use zmp_models::closed_loop::{run, StepExperiment, StepMetrics};
 use zmp_models::controller::{CascadeController, CascadeParams};
 use zmp_models::effects::uncertainty::weight;
+use zmp_models::logspace;
 use zmp_models::{Binding, Channel, Complex64, ModelSpec, Plant};
-use zmp_validation::io::atomic_write;
-use zmp_validation::plot::{
+use zmp_report::plot::{
     bode_svg, time_svg, Band, BodePanel, BodeSeries, Style, TimePanel, TimeSeries, PALETTE,
 };
-use zmp_validation::virtual_robot::{logspace, ExperimentDesign};
+use zmp_virtual_robot::ExperimentDesign;
 
 const MARKER: &str = ".zmp-demo-output";
 

@@ -4,21 +4,21 @@
 use crate::simulate::{load_model, progress_bar};
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
-use zmp_validation::campaign::{read_campaign, Campaign};
-use zmp_validation::diagnose::augment::{augment, Augmented};
-use zmp_validation::diagnose::cells::{cells, channel_scores, channel_summary};
-use zmp_validation::diagnose::measure::{aggregate, score};
-use zmp_validation::diagnose::observe::Observation;
-use zmp_validation::diagnose::report::{write_compare_report, write_diagnosis_report};
-use zmp_validation::diagnose::run::{check_inputs, observe_campaign};
-use zmp_validation::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
-use zmp_validation::io::{atomic_write, check_output_file, claim_dir, REPORT_MARKER};
-use zmp_validation::ledger;
-use zmp_validation::plot::bars_svg;
+use zmp_campaign::ledger;
+use zmp_campaign::{read_campaign, Campaign};
+use zmp_diagnose::augment::{augment, Augmented};
+use zmp_diagnose::cells::{cells, channel_scores, channel_summary};
+use zmp_diagnose::measure::{aggregate, score};
+use zmp_diagnose::observe::Observation;
+use zmp_diagnose::run::{check_inputs, observe_campaign};
+use zmp_diagnose::{diagnose, DiagnoseOptions, Diagnosis};
+use zmp_files::{atomic_write, check_output_file, claim_dir, REPORT_MARKER};
+use zmp_report::diagnose::{write_compare_report, write_diagnosis_report};
+use zmp_report::plot::bars_svg;
 
 /// The thread budget (`--threads`, else every core).
 fn threads() -> usize {
-    zmp_validation::par::budget()
+    zmp_campaign::par::budget()
 }
 
 pub fn read(campaign: &Path, quiet: bool) -> Result<Campaign> {
@@ -159,7 +159,7 @@ pub fn run_diagnosis(
     quiet: bool,
 ) -> Result<Diagnosis> {
     let pb = progress_bar(
-        (2 + zmp_validation::diagnose::candidates::CATALOGUE.len()) as u64,
+        (2 + zmp_diagnose::candidates::CATALOGUE.len()) as u64,
         "diagnosing",
         quiet,
     );

@@ -4,12 +4,13 @@ use crate::simulate::load_model;
 use crate::simulate::progress_bar;
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
-use zmp_validation::campaign::{read_campaign, read_manifest};
-use zmp_validation::identify::{
-    analyse_folder, analyse_records, identify_analysed, identify_with_progress,
-    report::write_report, summary_json, write_model, Identification, IdentifyOptions,
+use zmp_campaign::{read_campaign, read_manifest};
+use zmp_files::{check_output_file, claim_dir, REPORT_MARKER};
+use zmp_identify::{
+    analyse_folder, analyse_records, identify_analysed, identify_with_progress, summary_json,
+    write_model, Identification, IdentifyOptions,
 };
-use zmp_validation::io::{check_output_file, claim_dir, REPORT_MARKER};
+use zmp_report::identify::write_report;
 
 /// The default model path: `<campaign>/../<campaign-folder-name>-identified.toml`.
 pub fn default_out(campaign: &Path) -> PathBuf {
@@ -88,7 +89,7 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
     pb.finish_and_clear();
     let ident = identify_analysed(fits, manifest.name.clone(), &opts)?;
     // A model that names effects beyond the core: those are refitted with it.
-    let dopts = zmp_validation::diagnose::DiagnoseOptions {
+    let dopts = zmp_diagnose::DiagnoseOptions {
         campaign_path: campaign.display().to_string(),
         model_path: a
             .model
@@ -99,7 +100,7 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
     let mut change = "identified".to_string();
     if let Some(camp) = &camp {
         let pb = progress_bar(1, "refitting", quiet);
-        let refit = zmp_validation::diagnose::augment::refit_structure(camp, &ident.model, &dopts)?;
+        let refit = zmp_diagnose::augment::refit_structure(camp, &ident.model, &dopts)?;
         pb.finish_and_clear();
         if let Some(r) = refit {
             if !quiet {
@@ -117,7 +118,7 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
     }
     write_model(&ident, &out, force)?;
     // The ledger's error reuses the identification's own record analyses.
-    let (obs, _) = zmp_validation::diagnose::run::observations_of(&ident.records);
+    let (obs, _) = zmp_diagnose::run::observations_of(&ident.records);
     record_in_ledger(&obs, &ident.model, &out, a.model, &change, &dopts, quiet);
     let files = match report {
         Some(dir) => Some(write_report(&ident, dir, force)?),
@@ -168,15 +169,15 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
 /// Records the written model in the ledger beside it, with its error on the campaign (a
 /// failure here is a warning: the model file is written).
 pub fn record_in_ledger(
-    obs: &[zmp_validation::diagnose::observe::Observation],
+    obs: &[zmp_diagnose::observe::Observation],
     spec: &zmp_models::ModelSpec,
     out: &Path,
     parent: Option<&Path>,
     change: &str,
-    opts: &zmp_validation::diagnose::DiagnoseOptions,
+    opts: &zmp_diagnose::DiagnoseOptions,
     quiet: bool,
 ) {
-    use zmp_validation::diagnose::{engine::evaluate, measure::aggregate};
+    use zmp_diagnose::{engine::evaluate, measure::aggregate};
     let run = || -> Result<()> {
         let refs: Vec<_> = obs.iter().collect();
         let (e, f) = aggregate(&evaluate(spec, &refs)?);
@@ -184,14 +185,14 @@ pub fn record_in_ledger(
         let parent = parent.filter(|p| p.parent() == out.parent() && p != &out);
         if let Some(p) = parent {
             let name = p.file_name().and_then(|n| n.to_str());
-            let known = zmp_validation::ledger::read(out)?
+            let known = zmp_campaign::ledger::read(out)?
                 .entries
                 .iter()
                 .any(|e| Some(e.model.as_str()) == name);
             if !known {
                 let start = crate::simulate::load_model(p)?;
                 let (e0, f0) = aggregate(&evaluate(&start, &refs)?);
-                zmp_validation::ledger::append_unless_recorded(
+                zmp_campaign::ledger::append_unless_recorded(
                     p,
                     "starting model",
                     &opts.campaign_path,
@@ -200,7 +201,7 @@ pub fn record_in_ledger(
                 )?;
             }
         }
-        zmp_validation::ledger::append(out, parent, change, &opts.campaign_path, e, f)?;
+        zmp_campaign::ledger::append(out, parent, change, &opts.campaign_path, e, f)?;
         Ok(())
     };
     if let Err(e) = run() {
@@ -214,14 +215,11 @@ pub fn record_in_ledger(
 /// `out/identified.toml` and the report into `out/identify/`. Returns the identification and
 /// the report's files.
 pub fn demo_step(
-    camp: &zmp_validation::campaign::Campaign,
+    camp: &zmp_campaign::Campaign,
     campaign_dir: &Path,
     out: &Path,
     quiet: bool,
-) -> Result<(
-    Identification,
-    zmp_validation::identify::report::ReportFiles,
-)> {
+) -> Result<(Identification, zmp_report::identify::ReportFiles)> {
     let opts = IdentifyOptions {
         campaign_path: Some(campaign_dir.to_path_buf()),
         ..IdentifyOptions::default()

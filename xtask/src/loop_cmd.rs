@@ -8,13 +8,13 @@ use crate::diagnose::{augmented_path, history_cmd, history_plot, read};
 use crate::simulate::{load_model, progress_bar};
 use anyhow::Result;
 use std::path::{Path, PathBuf};
-use zmp_validation::campaign::Campaign;
-use zmp_validation::diagnose::iterate::MAX_ROUNDS;
-use zmp_validation::diagnose::observe::Observation;
-use zmp_validation::diagnose::report::write_diagnosis_report;
-use zmp_validation::diagnose::DiagnoseOptions;
-use zmp_validation::identify::{write_model, IdentifyOptions};
-use zmp_validation::ledger;
+use zmp_campaign::ledger;
+use zmp_campaign::Campaign;
+use zmp_diagnose::iterate::MAX_ROUNDS;
+use zmp_diagnose::observe::Observation;
+use zmp_diagnose::DiagnoseOptions;
+use zmp_identify::{write_model, IdentifyOptions};
+use zmp_report::diagnose::write_diagnosis_report;
 
 /// What `cargo xtask loop` was asked.
 pub struct LoopArgs<'a> {
@@ -69,7 +69,7 @@ fn options(
     DiagnoseOptions {
         campaign_path: campaign.display().to_string(),
         model_path: model.display().to_string(),
-        threads: zmp_validation::par::budget(),
+        threads: zmp_campaign::par::budget(),
         time_limit,
         ..DiagnoseOptions::default()
     }
@@ -98,7 +98,7 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     };
     let out = a.out;
     // The output folder is claimed before any work: only a folder the loop wrote is replaced.
-    zmp_validation::io::claim_dir(out, LOOP_MARKER, a.force, "loop output")?;
+    zmp_files::claim_dir(out, LOOP_MARKER, a.force, "loop output")?;
     let identified = out.join("identified.toml");
     let start = a.model.map(load_model).transpose()?;
     let dopts = options(a.campaign, &identified, a.time_limit);
@@ -107,7 +107,7 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         ..IdentifyOptions::default()
     };
     let pb = progress_bar(1 + 2 * MAX_ROUNDS as u64, "identifying", quiet);
-    let r = zmp_validation::diagnose::iterate::run_loop(camp, start, &iopts, &dopts, &|what| {
+    let r = zmp_diagnose::iterate::run_loop(camp, start, &iopts, &dopts, &|what| {
         pb.set_message(what.to_string());
         if what == "diagnosing" || what.starts_with("adding") {
             pb.inc(1);
@@ -148,7 +148,7 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         } else {
             out.join(format!("diagnosis-{}", k + 1))
         };
-        zmp_validation::io::claim_dir(&dir, zmp_validation::io::REPORT_MARKER, true, "report")?;
+        zmp_files::claim_dir(&dir, zmp_files::REPORT_MARKER, true, "report")?;
         reports.push(write_diagnosis_report(camp, d, &dir, true)?);
         say(&format!(
             "diagnosis {}: verdict {}{}",
@@ -173,7 +173,7 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
             added.join("+")
         };
         let next = augmented_path(&current_path, &label);
-        zmp_validation::io::atomic_write(&next, aug.spec.to_toml().as_bytes(), true)?;
+        zmp_files::atomic_write(&next, aug.spec.to_toml().as_bytes(), true)?;
         ledger::append(
             &next,
             Some(&current_path),
@@ -198,8 +198,8 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         current_path = next;
     }
     let obs: Vec<&Observation> = r.observations.iter().collect();
-    let final_preds = zmp_validation::diagnose::measure::predict(&r.final_model, &obs)?;
-    let still_failing: Vec<String> = zmp_validation::diagnose::cells::cells(&obs, &final_preds)
+    let final_preds = zmp_diagnose::measure::predict(&r.final_model, &obs)?;
+    let still_failing: Vec<String> = zmp_diagnose::cells::cells(&obs, &final_preds)
         .iter()
         .filter(|c| c.significant)
         .take(8)
@@ -283,7 +283,7 @@ pub fn demo_loop(dir: &Path, quiet: bool) -> Result<DemoLoop> {
     pb.finish_and_clear();
     // The truth stays outside the campaign folder.
     let truth = dir.join("truth.json");
-    zmp_validation::io::atomic_write(&truth, robot.to_json().as_bytes(), true)?;
+    zmp_files::atomic_write(&truth, robot.to_json().as_bytes(), true)?;
     let hidden: Vec<String> = robot.hidden.iter().map(|h| h.name.to_string()).collect();
     if !quiet {
         println!(

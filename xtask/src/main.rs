@@ -9,6 +9,7 @@ mod diagnose;
 mod env;
 mod fmu;
 mod identify;
+mod links;
 mod loop_cmd;
 mod setup;
 mod simulate;
@@ -39,9 +40,21 @@ enum Cmd {
         #[arg(long)]
         quiet: bool,
     },
-    /// What CI runs: setup, then cargo fmt --check, clippy -D warnings, test (release), and the
-    /// instruction-count gate (`bench --counts-only`).
-    Ci,
+    /// The link check CI runs: every relative link and anchor of README.md, CHANGELOG.md, the
+    /// book (docs/) and the crates' READMEs must resolve in the clone.
+    Links,
+    /// What CI runs: setup, then cargo fmt --check, clippy -D warnings, test (release), the
+    /// book's link check and the instruction-count gate (`bench --counts-only`).
+    ///
+    /// With --long, afterwards also the long suites CI leaves out (`#[ignore = "long: ..."]`:
+    /// the loop on single draws of the independent simulator, about 40 minutes on 2 cores);
+    /// the held-out and development blind suites are never run by it (run by hand, once).
+    Ci {
+        /// Also run the long suites (`cargo test --workspace --release -- --ignored`, without
+        /// the held-out and development blind suites).
+        #[arg(long)]
+        long: bool,
+    },
     /// Speed of the hot paths and the commands, tracked (bench/README.md).
     ///
     /// Counts the instructions (callgrind, one thread) of the plant step, the controller step,
@@ -342,9 +355,9 @@ enum ValidateRobot {
         /// Print the summary (summary.json) on standard output.
         #[arg(long)]
         json: bool,
-        /// Also write this run's numbers into the README at PATH, between its
-        /// `<!-- twin-silo2:... -->` markers (full run only): how the README's twin tables
-        /// are made.
+        /// Also write this run's numbers into the book page at PATH (docs/src/twin-silo2.md),
+        /// between its `<!-- twin-silo2:... -->` markers (full run only): how the book's twin
+        /// tables are made.
         #[arg(long, value_name = "PATH", conflicts_with = "short")]
         readme: Option<PathBuf>,
     },
@@ -366,7 +379,7 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.threads {
-        Some(n) => zmp_validation::par::with_threads(usize::from(n), || dispatch(cli.command)),
+        Some(n) => zmp_campaign::par::with_threads(usize::from(n), || dispatch(cli.command)),
         None => dispatch(cli.command),
     }
 }
@@ -374,7 +387,8 @@ fn run(cli: Cli) -> Result<()> {
 fn dispatch(command: Cmd) -> Result<()> {
     match command {
         Cmd::Setup { quiet } => setup::setup(quiet).map(|_| ()),
-        Cmd::Ci => ci::ci(),
+        Cmd::Ci { long } => ci::ci(long),
+        Cmd::Links => links::check_repository(&env::repo_root()),
         Cmd::Bench {
             counts_only,
             save_baseline,

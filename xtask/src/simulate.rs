@@ -3,9 +3,9 @@
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::Path;
+use zmp_campaign::{check_destination, write_campaign, Campaign};
 use zmp_models::ModelSpec;
-use zmp_validation::campaign::{check_destination, write_campaign, Campaign};
-use zmp_validation::virtual_robot::{simulate_campaign_with_progress, ExperimentDesign};
+use zmp_virtual_robot::{simulate_campaign_with_progress, ExperimentDesign};
 
 pub fn load_model(path: &Path) -> Result<ModelSpec> {
     let text = std::fs::read_to_string(path)

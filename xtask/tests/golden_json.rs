@@ -8,25 +8,10 @@
 //! A deliberate change of these outputs (a new field, a better fit) re-records them with
 //! `ZMP_UPDATE_GOLDEN=1 cargo test --release -p xtask --test golden_json`; the commit says why.
 
+mod support;
+
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn xtask(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_xtask"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("xtask runs")
-}
-
-fn ok(out: Output, what: &str) -> String {
-    assert!(
-        out.status.success(),
-        "{what} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).expect("utf-8")
-}
+use support::{ok, xtask};
 
 /// Compares `got` with the golden file `name`, or writes it with `ZMP_UPDATE_GOLDEN=1`.
 fn golden(name: &str, got: &str) {

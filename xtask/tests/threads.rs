@@ -1,25 +1,10 @@
 //! `--threads N` (a global option): identify and diagnose give the same results on one thread
 //! as on the default pool, and a zero is refused with a message naming the option.
 
+mod support;
+
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn xtask(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_xtask"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("xtask runs")
-}
-
-fn ok(out: Output, what: &str) -> String {
-    assert!(
-        out.status.success(),
-        "{what} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).expect("utf-8")
-}
+use support::{ok, xtask};
 
 #[test]
 fn one_thread_gives_the_same_results_and_zero_is_refused() {

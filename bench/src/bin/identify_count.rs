@@ -35,12 +35,12 @@ fn main() {
             // process (the first pays for fresh memory, the others reuse it).
             for _ in 0..3 {
                 let t0 = Instant::now();
-                let camp = zmp_validation::campaign::read_campaign(dir).expect("read");
+                let camp = zmp_campaign::read_campaign(dir).expect("read");
                 let t1 = Instant::now();
-                let opts = zmp_validation::identify::IdentifyOptions::default();
-                let fits = zmp_validation::identify::analyse_records(&camp, &opts, &|_| {});
+                let opts = zmp_identify::IdentifyOptions::default();
+                let fits = zmp_identify::analyse_records(&camp, &opts, &|_| {});
                 let t2 = Instant::now();
-                let id = zmp_validation::identify::identify(&camp, &opts).expect("identify");
+                let id = zmp_identify::identify(&camp, &opts).expect("identify");
                 let t3 = Instant::now();
                 eprintln!(
                 "read {:.1} ms, analyse {:.1} ms, identify (analyse again + rest) {:.1} ms; {} fits, a11 {}, limit {:?} +- {:?}",
@@ -55,7 +55,7 @@ fn main() {
             }
         }
         "read" => {
-            let camp = zmp_validation::campaign::read_campaign(dir).expect("read");
+            let camp = zmp_campaign::read_campaign(dir).expect("read");
             println!("records {}", camp.records.len());
         }
         _ => {

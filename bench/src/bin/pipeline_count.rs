@@ -18,8 +18,8 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
 use zmp_bench::pipeline::{diagnose_campaign, identify_read, write, CAMPAIGN, MODEL};
+use zmp_campaign::{read_campaign, Campaign};
 use zmp_models::ModelSpec;
-use zmp_validation::campaign::{read_campaign, Campaign};
 
 #[inline(never)]
 fn count_loop_identify(dir: &Path) -> anyhow::Result<String> {

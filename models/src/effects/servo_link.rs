@@ -13,7 +13,7 @@
 //! law before) clamps the CoM's own acceleration instead, which near the mode is a different
 //! force: on independently simulated robots with a mode, the saturated records were up to 230
 //! times their noise off with it, from the drawn robots' own parameters
-//! (`validation/tests/trunk_in_servo.rs`). The stepped loop is also exact (first-order hold of
+//! (`validation/suites/tests/trunk_in_servo.rs`). The stepped loop is also exact (first-order hold of
 //! the reference) where a filter before the servo holds its output as a ramp.
 //!
 //! Per unit of the axis's inertia: the link carries `u = share (1 - drive)` of it, the joint

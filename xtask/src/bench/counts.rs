@@ -173,7 +173,7 @@ fn cargo() -> OsString {
 /// as the binaries of zmp-bench's integration test, with the features the test step resolves,
 /// so after `cargo test --workspace --release` (CI's step before the gate) this rebuilds
 /// nothing (a `cargo build -p zmp-bench` would resolve other features of the shared
-/// dependencies and recompile zmp-models and zmp-validation). With `planted`, builds them with
+/// dependencies and recompile zmp-models and the validation crates). With `planted`, builds them with
 /// the planted regression of `Plant::step` and without the pipeline and FMU features, so that
 /// only `zmp-models` and `zmp-bench` are recompiled.
 pub fn build(bins: &BTreeSet<&str>, planted: bool) -> Result<HashMap<String, PathBuf>> {

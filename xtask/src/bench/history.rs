@@ -15,7 +15,7 @@ use super::counts::{Per, REGISTRY};
 use super::gate::Measured;
 use super::wall::{Peer, WallResults, MEDIANS};
 use crate::env::repo_root;
-use zmp_validation::plot::{time_svg, Style, TimePanel, TimeSeries, PALETTE};
+use zmp_report::plot::{time_svg, Style, TimePanel, TimeSeries, PALETTE};
 
 /// Marker lines of the generated table in `bench/README.md`.
 pub const TABLE_BEGIN: &str =
@@ -59,7 +59,7 @@ pub fn commit_id() -> String {
 }
 
 // Now, UTC, as `YYYY-MM-DDTHH:MM:SSZ`: the one clock formatter, the model files'.
-use zmp_validation::identify::utc_now;
+use zmp_campaign::ledger::utc_now;
 
 /// Appends this run to the history, redraws the trends and regenerates the README table.
 pub fn record(measured: &[Measured], wall: &WallResults) -> Result<()> {
@@ -87,7 +87,7 @@ pub fn record(measured: &[Measured], wall: &WallResults) -> Result<()> {
         .with_context(|| format!("reading {}", readme.display()))?;
     let new = replace_table(&text, &latest_table(&entry))
         .with_context(|| format!("{}: the generated table", readme.display()))?;
-    zmp_validation::io::atomic_write(&readme, new.as_bytes(), true)?;
+    zmp_files::atomic_write(&readme, new.as_bytes(), true)?;
     eprintln!(
         "bench: appended to {}, trends in {}, table in {}",
         path.display(),

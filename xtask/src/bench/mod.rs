@@ -134,7 +134,7 @@ pub fn counts_and_gate(args: &BenchArgs) -> Result<CountOutcome> {
             fingerprint,
             benches: kept,
         };
-        zmp_validation::io::atomic_write(&baseline_path, baseline.to_toml()?.as_bytes(), true)?;
+        zmp_files::atomic_write(&baseline_path, baseline.to_toml()?.as_bytes(), true)?;
         eprintln!("bench: wrote {}", baseline_path.display());
         return Ok(CountOutcome {
             measured,

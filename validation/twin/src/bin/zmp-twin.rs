@@ -72,8 +72,8 @@ enum Silo2Cmd {
         /// builds without the `renderer` feature); written into the report.
         #[arg(long, hide = true)]
         frames_unavailable: Option<String>,
-        /// Also write this run's numbers into the README at PATH, between its
-        /// `<!-- twin-silo2:... -->` markers (the full run only: the README quotes it).
+        /// Also write this run's numbers into the book page at PATH (docs/src/twin-silo2.md),
+        /// between its `<!-- twin-silo2:... -->` markers (the full run only: the page quotes it).
         #[arg(long, value_name = "PATH", conflicts_with = "short")]
         readme: Option<PathBuf>,
     },
@@ -222,7 +222,7 @@ fn run(cli: Cli) -> Result<()> {
                         pb.set_position(d as u64)
                     })?;
                 pb.finish_and_clear();
-                zmp_validation::campaign::write_campaign(&out, &camp, force)
+                zmp_campaign::write_campaign(&out, &camp, force)
                     .with_context(|| format!("writing {}", out.display()))?;
                 let rows: usize = camp.records.iter().map(|r| r.len()).sum();
                 if json {

@@ -86,7 +86,7 @@ pub fn hold_postures(
     home_x: f64,
 ) -> Result<Vec<HeldPosture>, TwinError> {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    zmp_validation::par::try_parallel_map(specs.len(), threads, |k| {
+    zmp_campaign::par::try_parallel_map(specs.len(), threads, |k| {
         let spec = specs[k];
         let mut cad = Sabian::load(&Variant::default(), "CAD")?;
         spec.pose(&mut cad, home_x)?;

@@ -259,13 +259,12 @@ pub fn walk_models(
         trunk_masses: vec![TRUE_ERROR_MASS],
         ..Default::default()
     };
-    let plans = zmp_validation::par::try_parallel_map(models.len(), opt.threads, |k| {
-        plan(&models[k], gait)
-    })?;
+    let plans =
+        zmp_campaign::par::try_parallel_map(models.len(), opt.threads, |k| plan(&models[k], gait))?;
     let jobs: Vec<(usize, usize)> = (0..models.len())
         .flat_map(|m| (0..opt.runs).map(move |r| (m, r)))
         .collect();
-    let runs = zmp_validation::par::try_parallel_map(jobs.len(), opt.threads, |j| {
+    let runs = zmp_campaign::par::try_parallel_map(jobs.len(), opt.threads, |j| {
         let (m, r) = jobs[j];
         // The same perturbations for every model: run r of each model meets the same robot.
         execute(

@@ -5,7 +5,7 @@ use super::experiment::{DesignOutcome, ModelOutcome};
 use super::report::Outcome;
 use anyhow::Result;
 use std::path::{Path, PathBuf};
-use zmp_validation::plot::{time_svg, Style, TimePanel, TimeSeries, PALETTE};
+use zmp_report::plot::{time_svg, Style, TimePanel, TimeSeries, PALETTE};
 
 /// The SVG figures (written into `dir`).
 pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {

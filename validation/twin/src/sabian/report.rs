@@ -6,7 +6,7 @@ pub use super::figures::figures;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use zmp_validation::io::atomic_write;
+use zmp_files::atomic_write;
 
 /// The seed's tables 2-4 (models n, r, s, v), as printed.
 pub mod seed_tables {

@@ -18,8 +18,8 @@ use crate::mj::TwinError;
 use crate::zmp::{ZmpSensor, ZmpSensorSpec};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
+use zmp_campaign::{Campaign, Record, RecordMeta};
 use zmp_models::Axis;
-use zmp_validation::campaign::{Campaign, Record, RecordMeta};
 
 /// What to run on the twin: every operating point × amplitude × excited axis × frequency.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -47,7 +47,7 @@ pub struct TwinDesign {
 }
 
 fn logspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
-    zmp_validation::virtual_robot::logspace(lo, hi, n)
+    zmp_models::logspace(lo, hi, n)
 }
 
 impl TwinDesign {
@@ -263,7 +263,7 @@ pub fn run_campaign(
     })?;
     let metas = design.records();
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let records = zmp_validation::par::try_parallel_map(metas.len(), threads, |k| {
+    let records = zmp_campaign::par::try_parallel_map(metas.len(), threads, |k| {
         let r = simulate_record(twin, props, design, &metas[k], k);
         progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
         r

@@ -223,7 +223,7 @@ pub fn budget(
     threads: usize,
 ) -> Result<Vec<BudgetRow>, TwinError> {
     let upright = predict(twin, props, [props.com_upright[0], props.com_upright[1]])?;
-    zmp_validation::par::try_parallel_map(timeconsts.len(), threads, |i| {
+    zmp_campaign::par::try_parallel_map(timeconsts.len(), threads, |i| {
         let tc = timeconsts[i];
         let soft = twin.with_solref(tc, 1.0)?;
         let st = static_check(&soft, props, com_ref, 2.0, 0.5)?;

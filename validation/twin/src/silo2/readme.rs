@@ -1,7 +1,7 @@
-//! The README's numbers of the SILO2 twin, written by the run that measures them:
-//! `validate --readme README.md` (full runs only) replaces the text between
-//! `<!-- twin-silo2:TAG -->` and `<!-- /twin-silo2:TAG -->` for each section below, so the
-//! README never quotes a stale or hand-copied run.
+//! The book's numbers of the SILO2 twin (`docs/src/twin-silo2.md`), written by the run that
+//! measures them: `validate --readme docs/src/twin-silo2.md` (full runs only) replaces the
+//! text between `<!-- twin-silo2:TAG -->` and `<!-- /twin-silo2:TAG -->` for each section
+//! below, so the page never quotes a stale or hand-copied run.
 
 use super::summary::{ParameterRow, Summary};
 use std::fmt::Write as _;
@@ -184,72 +184,8 @@ fn diagnosis(s: &Summary) -> String {
     t
 }
 
-/// Replaces each section's text in the README at `path`; every section's markers must be
-/// there (an error names the file and the missing marker). Written to a temporary file beside
-/// it and renamed into place: a failure leaves the README as it was.
+/// Replaces each section's text in the page at `path` (see `zmp_files::sections`): every
+/// section's markers must be there, and a failure leaves the page as it was.
 pub fn write(path: &Path, sections: &[(&str, String)]) -> Result<(), String> {
-    let mut text = std::fs::read_to_string(path)
-        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-    for (tag, body) in sections {
-        let open = format!("<!-- {tag} -->\n");
-        let close = format!("<!-- /{tag} -->");
-        let a = text
-            .find(&open)
-            .ok_or_else(|| format!("{}: no marker `<!-- {tag} -->`", path.display()))?;
-        let b = text[a..].find(&close).map(|k| a + k).ok_or_else(|| {
-            format!(
-                "{}: no marker `<!-- /{tag} -->` after its opening",
-                path.display()
-            )
-        })?;
-        text = format!("{}{open}{body}{}", &text[..a], &text[b..]);
-    }
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let mut tmp = tempfile::NamedTempFile::new_in(dir)
-        .map_err(|e| format!("{}: cannot write beside it: {e}", path.display()))?;
-    use std::io::Write;
-    tmp.write_all(text.as_bytes())
-        .and_then(|_| tmp.as_file().sync_all())
-        .map_err(|e| format!("{}: writing: {e}", path.display()))?;
-    tmp.persist(path)
-        .map_err(|e| format!("{}: replacing: {e}", path.display()))?;
-    Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn sections_are_replaced_and_missing_markers_named() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("README.md");
-        std::fs::write(
-            &p,
-            "head\n<!-- twin-silo2:a -->\nold\n<!-- /twin-silo2:a -->\nmiddle\n\
-             <!-- twin-silo2:b -->\n<!-- /twin-silo2:b -->\ntail\n",
-        )
-        .unwrap();
-        write(
-            &p,
-            &[
-                ("twin-silo2:a", "new\n".into()),
-                ("twin-silo2:b", "B\n".into()),
-            ],
-        )
-        .unwrap();
-        assert_eq!(
-            std::fs::read_to_string(&p).unwrap(),
-            "head\n<!-- twin-silo2:a -->\nnew\n<!-- /twin-silo2:a -->\nmiddle\n\
-             <!-- twin-silo2:b -->\nB\n<!-- /twin-silo2:b -->\ntail\n"
-        );
-        let before = std::fs::read_to_string(&p).unwrap();
-        let e = write(&p, &[("twin-silo2:c", "x".into())]).unwrap_err();
-        assert!(e.contains("README.md") && e.contains("twin-silo2:c"), "{e}");
-        // Nothing was written.
-        assert_eq!(std::fs::read_to_string(&p).unwrap(), before);
-    }
+    zmp_files::sections::replace_sections(path, sections)
 }

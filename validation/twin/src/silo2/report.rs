@@ -7,9 +7,9 @@ use super::validate::Summary;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
+use zmp_identify::Identification;
 use zmp_models::closed_loop::{ClosedLoopTrace, StepExperiment};
-use zmp_validation::identify::Identification;
-use zmp_validation::plot::{time_svg, Style, TimePanel, TimeSeries, PALETTE};
+use zmp_report::plot::{time_svg, Style, TimePanel, TimeSeries, PALETTE};
 
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
@@ -418,5 +418,5 @@ pub fn write_html(
         );
     }
     h.push_str("</body></html>\n");
-    zmp_validation::io::atomic_write(path, h.as_bytes(), false)
+    zmp_files::atomic_write(path, h.as_bytes(), false)
 }

@@ -6,10 +6,10 @@ use super::crosscheck::{BudgetRow, DynamicCheck, StaticCheck};
 use super::props::{MassProperties, OperatingPoint};
 use serde::Serialize;
 use std::path::PathBuf;
+use zmp_diagnose::Diagnosis;
+use zmp_identify::Identification;
 use zmp_models::closed_loop::StepExperiment;
 use zmp_models::Axis;
-use zmp_validation::diagnose::Diagnosis;
-use zmp_validation::identify::Identification;
 
 /// One row of the `a`, `b` table.
 #[derive(Debug, Clone, Serialize)]

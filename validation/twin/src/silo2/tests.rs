@@ -126,8 +126,8 @@ fn broken_model_files_are_named_errors() {
 #[test]
 fn the_stated_zmp_delay_delays_the_measured_zmp() {
     use crate::zmp::ZmpSensorSpec;
+    use zmp_campaign::RecordMeta;
     use zmp_models::harmonic::first_harmonic;
-    use zmp_validation::campaign::RecordMeta;
     let t = twin();
     let p = mass_properties(&t).unwrap();
     let omega = 6.0;
@@ -300,7 +300,7 @@ fn the_output_folder_is_complete_and_not_overwritten_without_force() {
     ] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
-    let camp = zmp_validation::campaign::read_campaign(&out.join("campaign")).unwrap();
+    let camp = zmp_campaign::read_campaign(&out.join("campaign")).unwrap();
     assert_eq!(camp.records.len(), s.campaign.records);
     assert_eq!(s.frames_note.as_deref(), Some("frames not rendered: tests"));
     // A second run without --force refuses before doing anything; a folder this command did

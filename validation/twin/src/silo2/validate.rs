@@ -32,10 +32,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+use zmp_campaign::write_campaign;
+use zmp_diagnose::{diagnose, DiagnoseOptions};
+use zmp_identify::{identify_with_progress, IdentifyOptions};
 use zmp_models::Axis;
-use zmp_validation::campaign::write_campaign;
-use zmp_validation::diagnose::{diagnose, DiagnoseOptions};
-use zmp_validation::identify::{identify_with_progress, IdentifyOptions};
 
 /// `format` of `summary.json`.
 pub const FORMAT: &str = "zmp-twin-silo2/1";
@@ -213,12 +213,12 @@ pub fn validate(opts: &ValidateOptions) -> Result<Summary> {
     // dynamic cross-check per axis, the contact-softness budget.
     let eq10_points: Vec<[f64; 2]> = TwinDesign::full().operating_points;
     let pb = bar(opts.quiet, eq10_points.len() as u64 + 2, "ZMP checks");
-    let eq10 = zmp_validation::par::try_parallel_map(eq10_points.len(), opts.threads, |k| {
+    let eq10 = zmp_campaign::par::try_parallel_map(eq10_points.len(), opts.threads, |k| {
         let r = static_check(&twin, &props, eq10_points[k], 2.5, 0.5);
         pb.inc(1);
         r
     })?;
-    let dynamic = zmp_validation::par::try_parallel_map(2, opts.threads, |k| {
+    let dynamic = zmp_campaign::par::try_parallel_map(2, opts.threads, |k| {
         let axis = if k == 0 { Axis::X } else { Axis::Y };
         let r = dynamic_check(&twin, &props, axis, 6.0, 0.0035, 3);
         pb.inc(1);
@@ -287,8 +287,8 @@ pub fn validate(opts: &ValidateOptions) -> Result<Summary> {
     let pb = bar(opts.quiet, camp.records.len() as u64, "identify");
     let ident = identify_with_progress(&camp, &iopts, &|d| pb.set_position(d as u64))?;
     pb.finish_and_clear();
-    zmp_validation::identify::write_model(&ident, &dir.join("identified.toml"), false)?;
-    zmp_validation::identify::report::write_report(&ident, &dir.join("identify"), false)?;
+    zmp_identify::write_model(&ident, &dir.join("identified.toml"), false)?;
+    zmp_report::identify::write_report(&ident, &dir.join("identify"), false)?;
 
     // 4. Closed loop, twin and model. The twin's run and the diagnosis are independent: run
     // them side by side.
@@ -345,18 +345,13 @@ pub fn validate(opts: &ValidateOptions) -> Result<Summary> {
     ));
 
     // 5. Diagnosis.
-    zmp_validation::diagnose::report::write_diagnosis_report(
-        &camp,
-        &diag,
-        &dir.join("diagnosis"),
-        false,
-    )?;
+    zmp_report::diagnose::write_diagnosis_report(&camp, &diag, &dir.join("diagnosis"), false)?;
     let final_model = if diag.selected.is_empty() {
         None
     } else {
         let names: Vec<&str> = diag.selected.iter().map(|(e, _)| e.as_str()).collect();
         let file = PathBuf::from(format!("identified+{}.toml", names.join("+")));
-        zmp_validation::io::atomic_write(
+        zmp_files::atomic_write(
             &dir.join(&file),
             diag.final_model.to_toml().as_bytes(),
             false,
@@ -412,7 +407,7 @@ pub fn validate(opts: &ValidateOptions) -> Result<Summary> {
         wall_s: started.elapsed().as_secs_f64(),
     };
     report::write_html(&dir.join("report.html"), &summary, &ident, &upright)?;
-    zmp_validation::io::atomic_write(
+    zmp_files::atomic_write(
         &dir.join("summary.json"),
         serde_json::to_string_pretty(&summary)?.as_bytes(),
         false,
@@ -442,7 +437,7 @@ fn make_frames(
     };
     let run = || -> Result<Vec<PathBuf>> {
         let states_file = dir.join("frames").join("states.json");
-        zmp_validation::io::atomic_write(
+        zmp_files::atomic_write(
             &states_file,
             serde_json::to_string(states)?.as_bytes(),
             false,

@@ -1,0 +1,411 @@
+//! The model ledger: one JSON line per model version written by `identify` or `augment`, kept
+//! beside the model files (`zmp-ledger.jsonl` in their folder), so that the history of a model
+//! (which effect was added when, and what it did to the error) can be shown as a waterfall.
+//!
+//! # Concurrency and damage
+//!
+//! Many runs may write models into one folder at once (a batch of `identify` runs, say). An
+//! entry is appended, never rewritten: the ledger is opened with `O_APPEND`, an advisory
+//! exclusive lock (`flock`) is taken, and the whole line goes out in one `write` and is synced
+//! before the lock is released, so concurrent writers never lose or interleave entries. Readers
+//! take a shared lock, so they never see half a line from a live writer.
+//!
+//! A line that is not an entry (a crash mid-write on a file system without the lock, a
+//! hand edit) is skipped with a warning naming the file and line; it never blocks the history
+//! of the other models nor new entries (an entry appended after a truncated last line starts on
+//! a line of its own).
+//!
+//! Why not an embedded database (SQLite): the ledger is small, append-only and meant to be read
+//! by people and scripts (`grep`, `jq`); a JSON-lines file under a lock gives the same safety
+//! for appends without a C dependency or a binary file in the user's model folder.
+
+use anyhow::{Context, Result};
+use serde::{Deserialize, Deserializer, Serialize};
+use std::fs::{File, OpenOptions};
+use std::io::{Read, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+/// File name of the ledger in a model's folder.
+pub const LEDGER_FILE: &str = "zmp-ledger.jsonl";
+
+/// One model version.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Entry {
+    /// Model file name (relative to the ledger's folder).
+    pub model: String,
+    /// Hash of the model file's contents when written (FNV-1a, hex).
+    pub hash: String,
+    /// The model this one was made from (file name in the same folder), if any.
+    pub parent: Option<String>,
+    /// What made it: `identified`, `+time_delay`, `refit`.
+    pub change: String,
+    /// Campaign the error is measured on, as given.
+    pub campaign: String,
+    /// The diagnosis error measure on that campaign, and its noise floor (JSON `null` when
+    /// not a number).
+    #[serde(deserialize_with = "null_as_nan")]
+    pub error: f64,
+    #[serde(deserialize_with = "null_as_nan")]
+    pub noise_floor: f64,
+    pub date: String,
+    pub tool: String,
+}
+
+/// serde_json writes NaN as `null`; read it back as NaN.
+fn null_as_nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
+/// What [`read`] found: the entries, in file order, and one warning per line skipped.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Contents {
+    pub entries: Vec<Entry>,
+    /// `"<file>:<line>: ... skipped"`, one per damaged line.
+    pub warnings: Vec<String>,
+}
+
+/// A model's history: see [`history`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct History {
+    /// The versions leading to the model, oldest first.
+    pub chain: Vec<Entry>,
+    /// The model file no longer matches its entry's hash.
+    pub edited: bool,
+    /// Damaged ledger lines that were skipped.
+    pub warnings: Vec<String>,
+}
+
+/// FNV-1a 64 of `bytes`, hex.
+pub fn content_hash(bytes: &[u8]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in bytes {
+        h ^= *b as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+/// The ledger file of the folder `model` is in.
+pub fn ledger_path(model: &Path) -> PathBuf {
+    model
+        .parent()
+        .map(|p| {
+            if p.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                p
+            }
+        })
+        .unwrap_or(Path::new("."))
+        .join(LEDGER_FILE)
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+/// Parses the ledger's bytes: every line that is an entry, a warning for every other
+/// non-blank line.
+fn parse(path: &Path, bytes: &[u8]) -> Contents {
+    let mut out = Contents::default();
+    for (k, line) in bytes.split(|b| *b == b'\n').enumerate() {
+        if line.iter().all(u8::is_ascii_whitespace) {
+            continue;
+        }
+        let parsed = std::str::from_utf8(line)
+            .map_err(|e| e.to_string())
+            .and_then(|s| serde_json::from_str::<Entry>(s).map_err(|e| e.to_string()));
+        match parsed {
+            Ok(e) => out.entries.push(e),
+            Err(why) => out.warnings.push(format!(
+                "{}:{}: not a ledger entry ({why}); line skipped",
+                path.display(),
+                k + 1
+            )),
+        }
+    }
+    out
+}
+
+/// Every entry of the ledger of `model`'s folder (none if there is no ledger), with a warning
+/// for each damaged line. Only an unreadable file is an error.
+pub fn read(model: &Path) -> Result<Contents> {
+    let path = ledger_path(model);
+    let mut file = match File::open(&path) {
+        Ok(f) => f,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Contents::default()),
+        Err(e) => return Err(e).with_context(|| format!("{}: cannot open", path.display())),
+    };
+    // A shared lock: a writer holding the exclusive one finishes its line first.
+    file.lock_shared()
+        .with_context(|| format!("{}: cannot lock for reading", path.display()))?;
+    let mut bytes = Vec::new();
+    file.read_to_end(&mut bytes)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    Ok(parse(&path, &bytes))
+}
+
+/// Appends `entry` to the ledger at `path` under an exclusive lock, in one write, synced.
+/// With `unless_recorded`, nothing is written when the ledger (read under the same lock)
+/// already has an entry for the same model; returns whether it wrote.
+fn append_locked(path: &Path, entry: &Entry, unless_recorded: bool) -> Result<bool> {
+    let mut file = OpenOptions::new()
+        .read(true)
+        .append(true)
+        .create(true)
+        .open(path)
+        .with_context(|| format!("{}: cannot open for appending", path.display()))?;
+    file.lock()
+        .with_context(|| format!("{}: cannot lock", path.display()))?;
+    let len = file
+        .metadata()
+        .with_context(|| format!("{}: cannot inspect", path.display()))?
+        .len();
+    if unless_recorded && len > 0 {
+        let mut bytes = Vec::new();
+        file.seek(SeekFrom::Start(0))
+            .and_then(|_| file.read_to_end(&mut bytes))
+            .with_context(|| format!("{}: cannot read", path.display()))?;
+        if parse(path, &bytes)
+            .entries
+            .iter()
+            .any(|e| e.model == entry.model)
+        {
+            return Ok(false);
+        }
+    }
+    let mut line = String::new();
+    if len > 0 {
+        // A damaged (truncated) last line must not swallow the new entry.
+        let mut last = [0u8; 1];
+        file.seek(SeekFrom::End(-1))
+            .and_then(|_| file.read_exact(&mut last))
+            .with_context(|| format!("{}: cannot read", path.display()))?;
+        if last[0] != b'\n' {
+            line.push('\n');
+        }
+    }
+    line.push_str(&serde_json::to_string(entry)?);
+    line.push('\n');
+    // O_APPEND: the write goes to the end whatever the file position.
+    file.write_all(line.as_bytes())
+        .with_context(|| format!("{}: cannot append", path.display()))?;
+    file.sync_data()
+        .with_context(|| format!("{}: cannot sync", path.display()))?;
+    Ok(true)
+}
+
+fn new_entry(
+    model: &Path,
+    parent: Option<&Path>,
+    change: &str,
+    campaign: &str,
+    error: f64,
+    noise_floor: f64,
+) -> Result<Entry> {
+    let bytes =
+        std::fs::read(model).with_context(|| format!("{}: cannot read", model.display()))?;
+    Ok(Entry {
+        model: file_name(model),
+        hash: content_hash(&bytes),
+        parent: parent.map(file_name),
+        change: change.to_string(),
+        campaign: campaign.to_string(),
+        error,
+        noise_floor,
+        date: utc_now(),
+        tool: format!("zmp-toolkit {}", env!("CARGO_PKG_VERSION")),
+    })
+}
+
+/// Appends an entry for `model` (already written) to its folder's ledger. Safe to call from
+/// many processes at once; damaged lines already in the ledger do not stop it.
+pub fn append(
+    model: &Path,
+    parent: Option<&Path>,
+    change: &str,
+    campaign: &str,
+    error: f64,
+    noise_floor: f64,
+) -> Result<Entry> {
+    let entry = new_entry(model, parent, change, campaign, error, noise_floor)?;
+    append_locked(&ledger_path(model), &entry, false)?;
+    Ok(entry)
+}
+
+/// Appends an entry for `model` unless its ledger already has one (checked and written under
+/// one lock, so two runs starting from the same model record it once). Returns whether it
+/// wrote.
+pub fn append_unless_recorded(
+    model: &Path,
+    change: &str,
+    campaign: &str,
+    error: f64,
+    noise_floor: f64,
+) -> Result<bool> {
+    let entry = new_entry(model, None, change, campaign, error, noise_floor)?;
+    append_locked(&ledger_path(model), &entry, true)
+}
+
+/// The versions leading to `model`, oldest first: its latest entry and its parents'. The
+/// model file's current contents must match the entry's hash, or the history says so with
+/// `edited = true`. Damaged ledger lines are skipped and listed in `warnings`.
+pub fn history(model: &Path) -> Result<History> {
+    let Contents {
+        entries: all,
+        warnings,
+    } = read(model)?;
+    let name = file_name(model);
+    let Some(last) = all.iter().rev().find(|e| e.model == name) else {
+        let mut msg = format!(
+            "{}: no ledger entry for {name} (models get one when `cargo xtask identify` or \
+             `cargo xtask augment` writes them)",
+            ledger_path(model).display()
+        );
+        if !warnings.is_empty() {
+            msg.push_str(&format!("; {} damaged line(s) skipped", warnings.len()));
+        }
+        anyhow::bail!(msg);
+    };
+    let edited = std::fs::read(model)
+        .map(|b| content_hash(&b) != last.hash)
+        .unwrap_or(true);
+    let mut chain = vec![last.clone()];
+    let mut seen = vec![last.model.clone()];
+    while let Some(p) = chain.last().and_then(|e| e.parent.clone()) {
+        if seen.contains(&p) {
+            break;
+        }
+        match all.iter().rev().find(|e| e.model == p) {
+            Some(e) => {
+                seen.push(p);
+                chain.push(e.clone());
+            }
+            None => break,
+        }
+    }
+    chain.reverse();
+    Ok(History {
+        chain,
+        edited,
+        warnings,
+    })
+}
+
+/// `YYYY-MM-DDTHH:MM:SSZ` from the system clock.
+pub fn utc_now() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs() as i64)
+        .unwrap_or(0);
+    let days = secs.div_euclid(86_400);
+    let rem = secs.rem_euclid(86_400);
+    // Civil date from days since 1970-01-01 (H. Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem / 60 % 60,
+        rem % 60
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chain_of_versions() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("robot.toml");
+        let b = dir.path().join("robot+time_delay.toml");
+        std::fs::write(&a, "a").unwrap();
+        std::fs::write(&b, "b").unwrap();
+        append(&a, None, "identified", "camp", 0.2, 0.01).unwrap();
+        append(&b, Some(&a), "+time_delay", "camp", 0.011, 0.01).unwrap();
+        let h = history(&b).unwrap();
+        assert_eq!(h.chain.len(), 2);
+        assert_eq!(h.chain[0].change, "identified");
+        assert_eq!(h.chain[1].error, 0.011);
+        assert!(!h.edited && h.warnings.is_empty());
+        std::fs::write(&b, "changed by hand").unwrap();
+        assert!(history(&b).unwrap().edited);
+        let none = dir.path().join("other.toml");
+        std::fs::write(&none, "x").unwrap();
+        let err = history(&none).unwrap_err().to_string();
+        assert!(err.contains("no ledger entry for other.toml"), "{err}");
+    }
+
+    #[test]
+    fn recorded_once_and_nan_survives() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("start.toml");
+        std::fs::write(&a, "a").unwrap();
+        assert!(append_unless_recorded(&a, "starting model", "c", f64::NAN, 0.01).unwrap());
+        assert!(!append_unless_recorded(&a, "starting model", "c", 0.3, 0.01).unwrap());
+        let c = read(&a).unwrap();
+        assert_eq!(c.entries.len(), 1, "{c:?}");
+        assert!(c.warnings.is_empty(), "{:?}", c.warnings);
+        assert!(c.entries[0].error.is_nan());
+    }
+
+    /// A crash mid-write leaves a truncated last line: the history still works (with a
+    /// warning naming file and line) and the next entry is appended on a line of its own.
+    #[test]
+    fn truncated_last_line_is_skipped_and_appended_after() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("a.toml");
+        let b = dir.path().join("b.toml");
+        std::fs::write(&a, "a").unwrap();
+        std::fs::write(&b, "b").unwrap();
+        append(&a, None, "identified", "camp", 0.2, 0.01).unwrap();
+        let ledger = ledger_path(&a);
+        let full = std::fs::read_to_string(&ledger).unwrap();
+        let mut damaged = full.clone();
+        damaged.push_str(&full[..full.len() / 2]);
+        std::fs::write(&ledger, &damaged).unwrap();
+
+        let h = history(&a).unwrap();
+        assert_eq!(h.chain.len(), 1);
+        assert_eq!(h.warnings.len(), 1, "{:?}", h.warnings);
+        let w = &h.warnings[0];
+        assert!(
+            w.contains("zmp-ledger.jsonl:2") && w.contains("skipped"),
+            "{w}"
+        );
+
+        append(&b, Some(&a), "+time_delay", "camp", 0.05, 0.01).unwrap();
+        let h = history(&b).unwrap();
+        assert_eq!(h.chain.len(), 2, "{h:?}");
+        assert_eq!(h.chain[1].change, "+time_delay");
+        let text = std::fs::read_to_string(&ledger).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 3, "{text}");
+        assert!(
+            serde_json::from_str::<Entry>(lines[2]).is_ok(),
+            "{}",
+            lines[2]
+        );
+        // Garbage in the middle (not UTF-8) is skipped too.
+        let mut bytes = std::fs::read(&ledger).unwrap();
+        bytes.splice(0..0, b"\xff\xfe{\n".iter().copied());
+        std::fs::write(&ledger, bytes).unwrap();
+        let c = read(&b).unwrap();
+        assert_eq!((c.entries.len(), c.warnings.len()), (2, 2), "{c:?}");
+        assert!(
+            c.warnings[0].contains("zmp-ledger.jsonl:1"),
+            "{:?}",
+            c.warnings
+        );
+    }
+}

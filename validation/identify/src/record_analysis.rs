@@ -1,0 +1,356 @@
+//! Steps 1-3 for each record (steady state, FFT first estimate, harmonic regression) and the
+//! campaign-wide pooling of the noise's colour.
+
+use super::{
+    noise, reason, sine, steady, worker_count, IdentifyOptions, RecordFit, SteadyComponents,
+};
+use num_complex::Complex64;
+use std::f64::consts::PI;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use zmp_campaign::par::parallel_map;
+use zmp_campaign::{Campaign, Record};
+
+fn excluded(rec: &Record, index: usize, why: &str) -> RecordFit {
+    RecordFit {
+        index,
+        excited: rec.meta.excited,
+        omega: rec.meta.omega,
+        omega_fit: rec.meta.omega,
+        amplitude: rec.meta.amplitude,
+        input_amplitude: 0.0,
+        operating_point: rec.meta.operating_point,
+        g: [Complex64::new(f64::NAN, f64::NAN); 2],
+        sigma: [f64::NAN; 2],
+        distortion: [f64::NAN; 2],
+        input_distortion: f64::NAN,
+        third_harmonic_snr: [f64::NAN; 2],
+        noise_std: [f64::NAN; 2],
+        steady_start_s: 0.0,
+        periods: 0,
+        excluded: Some(why.to_string()),
+        components: None,
+    }
+}
+
+fn is_constant(v: &[f64]) -> bool {
+    match v.first() {
+        None => true,
+        Some(&f) => v.iter().all(|&x| x == f),
+    }
+}
+
+/// Steps 1-3 for one record (`index` is its place in the campaign).
+pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> RecordFit {
+    let omega = rec.meta.omega;
+    let dt = rec.dt();
+    let n = rec.len();
+    if !(dt.is_finite() && dt > 0.0 && omega.is_finite() && omega > 0.0) {
+        return excluded(rec, index, reason::TOO_SHORT);
+    }
+    let per = 2.0 * PI / (omega * dt);
+    if (n as f64) < 2.0 * per || per < 4.0 {
+        return excluded(rec, index, reason::TOO_SHORT);
+    }
+    let input = rec.excitation();
+    if rec.meta.amplitude <= 0.0 || is_constant(input) {
+        return excluded(rec, index, reason::ZERO_AMPLITUDE);
+    }
+    if is_constant(&rec.zmp_x) || is_constant(&rec.zmp_y) {
+        return excluded(rec, index, reason::CONSTANT_OUTPUT);
+    }
+    // Centre every signal (conditioning of the fits).
+    let centre = |v: &[f64]| -> Vec<f64> {
+        let m = v.iter().sum::<f64>() / v.len() as f64;
+        v.iter().map(|x| x - m).collect()
+    };
+    let (u, yx, yy) = (centre(input), centre(&rec.zmp_x), centre(&rec.zmp_y));
+    if ![&u, &yx, &yy]
+        .iter()
+        .all(|s| s.iter().all(|v| v.is_finite()))
+    {
+        return excluded(rec, index, reason::BAD_DATA);
+    }
+    // 1. Steady state.
+    let Some(st) = steady::detect_steady([&u[..], &yx[..], &yy[..]], omega, dt) else {
+        return excluded(rec, index, reason::TOO_SHORT);
+    };
+    let steady_start_s = st.start as f64 * dt;
+    if st.periods < 2 {
+        let mut r = excluded(rec, index, reason::NO_STEADY);
+        r.steady_start_s = steady_start_s;
+        r.periods = st.periods;
+        return r;
+    }
+    let range = st.start..st.start + st.len;
+    let sig = [&u[range.clone()], &yx[range.clone()], &yy[range]];
+    // 2. First estimate: windowed FFT of the input; the excitation must be where the manifest
+    // says (within two FFT bins).
+    let (fft_phasors, w_fft) = sine::fft_estimate([sig[0]], omega, dt);
+    let bin = 2.0 * PI / (st.len as f64 * dt);
+    if (w_fft - omega).abs() > 2.0 * bin || fft_phasors[0].norm() == 0.0 {
+        let mut r = excluded(rec, index, reason::WRONG_FREQUENCY);
+        r.steady_start_s = steady_start_s;
+        r.periods = st.periods;
+        return r;
+    }
+    // 3. Harmonic regression with a trend column (a drifting sensor's ramp stays out of the
+    // harmonics), the frequency refined on the signals less that trend, and the fit with the
+    // trend column at the refined frequency (from the refinement's own pass; the first fit if
+    // the frequency stayed).
+    let k_max = opts.harmonics.clamp(1, 8);
+    let Some(first) = sine::harmonic_fit_trend(sig, omega, dt, k_max) else {
+        return excluded(rec, index, reason::BAD_DATA);
+    };
+    let Some((w, moved)) = sine::refine_frequency(sig, first.trend, omega, dt, k_max) else {
+        return excluded(rec, index, reason::BAD_DATA);
+    };
+    let hf = moved.unwrap_or(first);
+    // The outputs' residual colour (the input's is not used: its noise enters through
+    // `noise_var[0]` alone).
+    let local = noise::local_noise([sig[1], sig[2]], &hf.pick([1, 2]), w, dt);
+    let p_in = hf.harmonics[0][0];
+    let nn = st.len as f64;
+    let amp_in = p_in.norm();
+    if amp_in.is_nan() || amp_in <= 1e-3 * rec.meta.amplitude.abs() || !amp_in.is_finite() {
+        return excluded(rec, index, reason::ZERO_AMPLITUDE);
+    }
+    let var_u = hf.noise_var[0];
+    let mut g = [Complex64::new(0.0, 0.0); 2];
+    let mut sigma = [0.0; 2];
+    let mut distortion = [0.0; 2];
+    let mut snr3 = [0.0; 2];
+    let mut noise = [0.0; 2];
+    for o in 0..2 {
+        let p = hf.harmonics[1 + o][0];
+        g[o] = p / p_in;
+        let var_y = hf.noise_var[1 + o];
+        // Each phasor component has variance 2 var / n over whole periods.
+        let noise_var = (2.0 / nn) * (var_y + g[o].norm_sqr() * var_u) / (amp_in * amp_in);
+        sigma[o] = (noise_var + (opts.relative_floor * g[o].norm()).powi(2)).sqrt();
+        let harm: f64 = hf.harmonics[1 + o][1..].iter().map(|h| h.norm_sqr()).sum();
+        distortion[o] = harm.sqrt() / p.norm().max(1e-300);
+        snr3[o] = if k_max >= 3 {
+            hf.harmonics[1 + o][2].norm() / ((2.0 / nn) * var_y).sqrt().max(1e-300)
+        } else {
+            0.0
+        };
+        noise[o] = var_y.sqrt();
+    }
+    let harm_in: f64 = hf.harmonics[0][1..].iter().map(|h| h.norm_sqr()).sum();
+    let t0 = rec.t[st.start];
+    let third = |j: usize| {
+        hf.harmonics[j]
+            .get(2)
+            .copied()
+            .unwrap_or(Complex64::new(0.0, 0.0))
+    };
+    let ratio = |j: usize, v: f64| v / hf.noise_var[j].max(1e-300);
+    let components = SteadyComponents {
+        t0,
+        t1: rec.t[st.start + st.len - 1],
+        samples: st.len,
+        omega: w,
+        u1: p_in,
+        y1: [hf.harmonics[1][0], hf.harmonics[2][0]],
+        y3: [third(1), third(2)],
+        trend: [hf.trend[1], hf.trend[2]],
+        residual_var: [hf.noise_var[1], hf.noise_var[2]],
+        input_residual_var: hf.noise_var[0],
+        trend_omegas: trend_omegas(st.len as f64 * dt),
+        colour_raw: [
+            (ratio(1, local[0].near_omega), ratio(1, local[0].near_zero)),
+            (ratio(2, local[1].near_omega), ratio(2, local[1].near_zero)),
+        ],
+        colour_bins: [1, 2].map(|j| {
+            local[j - 1]
+                .near_bins
+                .iter()
+                .chain(local[j - 1].zero_bins.iter())
+                .map(|&(f, p)| (f, ratio(j, p)))
+                .collect()
+        }),
+        colour: [(1.0, 1.0); 2],
+        colour3: [1.0; 2],
+        inv_diag_h1: hf.inv_diag_h1,
+        inv_diag_trend: hf.inv_diag_trend,
+    };
+    RecordFit {
+        index,
+        excited: rec.meta.excited,
+        omega,
+        omega_fit: w,
+        amplitude: rec.meta.amplitude,
+        input_amplitude: amp_in,
+        operating_point: rec.meta.operating_point,
+        g,
+        sigma,
+        distortion,
+        input_distortion: harm_in.sqrt() / amp_in,
+        third_harmonic_snr: snr3,
+        noise_std: noise,
+        steady_start_s,
+        periods: st.periods,
+        excluded: None,
+        components: Some(components),
+    }
+}
+
+/// Analyses every record on `threads` scoped threads, results in record order; the noise's
+/// colour is then pooled over the campaign ([`pool_colour`]).
+pub fn analyse_records(
+    campaign: &Campaign,
+    opts: &IdentifyOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Vec<RecordFit> {
+    let done = AtomicUsize::new(0);
+    let mut fits = parallel_map(campaign.records.len(), worker_count(opts), |k| {
+        let fit = analyse_record(&campaign.records[k], k, opts);
+        progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+        fit
+    });
+    pool_colour(&mut fits, opts.relative_floor);
+    fits
+}
+
+/// [`analyse_records`] straight from the campaign folder `dir` (whose manifest is
+/// `manifest`): each record is analysed on the thread that read it and its columns are dropped
+/// there, so the campaign's data is never all in memory (what `cargo xtask identify` does).
+/// The analyses equal those of [`read_campaign`](zmp_campaign::read_campaign) followed by
+/// [`analyse_records`].
+pub fn analyse_folder(
+    dir: &std::path::Path,
+    manifest: &zmp_campaign::Manifest,
+    opts: &IdentifyOptions,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Vec<RecordFit>, zmp_campaign::CampaignError> {
+    let done = AtomicUsize::new(0);
+    let mut fits = zmp_campaign::map_records(dir, manifest, worker_count(opts), |k, record| {
+        let fit = analyse_record(&record, k, opts);
+        progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+        fit
+    })?;
+    pool_colour(&mut fits, opts.relative_floor);
+    Ok(fits)
+}
+
+/// Where the fitted trend sees the noise, as `x = omega T / 2` over a window of length `T`:
+/// the equal-weight quadrature nodes (the midpoints of the eight octiles) of the trend
+/// column's spectral window `|f(x)|^2`, `f(x) = (sin x - x cos x) / x^2` (the Fourier
+/// transform of the centred ramp; its integral is `pi/6`). The trend's variance under a
+/// noise of spectrum `S` is its white-noise variance times the `|f|^2`-weighted mean of
+/// `S` over the white level, so the mean of the pooled colour at these nodes. Most of the
+/// weight lies below one Fourier bin of the window (`x < pi`), where no bin of the record
+/// itself can be read (its trend and DC take them): the pool reads it from the bins of the
+/// campaign's longer records. The colour near the bins two to ten resolutions up, which a
+/// first-order noise of 1 s (a force sensor's slow creep) already puts 10-30 times lower,
+/// left the trend's standard error 2-3 times too small on short records: a clean robot's
+/// trends were then "significant" and its cells failed at 3-5 times their floor.
+pub const TREND_NODES: [f64; 8] = [0.9985, 1.517, 1.8915, 2.2375, 2.605, 3.0785, 5.588, 15.485];
+
+/// [`TREND_NODES`] as frequencies (rad/s) for a window of `window_s` seconds.
+pub fn trend_omegas(window_s: f64) -> [f64; TREND_NODES.len()] {
+    TREND_NODES.map(|x| 2.0 * x / window_s.max(1e-9))
+}
+
+/// Pools the records' colour estimates over the campaign, per output and by frequency (see
+/// `noise`), and updates each record's colour factors and the standard errors of its `g`:
+/// with white noise the factors are about 1 and nothing changes; with coloured noise the
+/// variances follow the noise where each record sees it.
+pub fn pool_colour(records: &mut [RecordFit], relative_floor: f64) {
+    use noise::{pool_ratios, ColourSample};
+    for i in 0..2 {
+        // Every bin of every record, at its own frequency; a bin both beside the excitation
+        // and near zero counts once.
+        let mut samples: Vec<ColourSample> = Vec::new();
+        for c in records.iter().filter_map(|r| r.components.as_ref()) {
+            let res = 2.0 * std::f64::consts::PI / (c.t1 - c.t0).max(1e-9);
+            let mut seen: Vec<f64> = Vec::new();
+            for &(w, ratio) in &c.colour_bins[i] {
+                if seen.iter().any(|s| (s - w).abs() < 0.25 * res) {
+                    continue;
+                }
+                seen.push(w);
+                samples.push(ColourSample {
+                    omega: w,
+                    ratio,
+                    bins: 1,
+                });
+            }
+        }
+        let q_near: Vec<f64> = records
+            .iter()
+            .map(|r| r.components.as_ref().map_or(f64::NAN, |c| c.omega))
+            .collect();
+        let q_zero: Vec<f64> = records
+            .iter()
+            .flat_map(|r| {
+                r.components
+                    .as_ref()
+                    .map_or([f64::NAN; TREND_NODES.len()], |c| c.trend_omegas)
+            })
+            .collect();
+        let q_third: Vec<f64> = q_near.iter().map(|w| 3.0 * w).collect();
+        let f_near = pool_ratios(&samples, &q_near);
+        // The trend's factor: the pooled colour averaged over its quadrature nodes.
+        let f_zero: Vec<f64> = pool_ratios(&samples, &q_zero)
+            .chunks(TREND_NODES.len())
+            .map(|f| f.iter().sum::<f64>() / f.len() as f64)
+            .collect();
+        let f_third = pool_ratios(&samples, &q_third);
+        for (k, r) in records.iter_mut().enumerate() {
+            let Some(c) = r.components.as_mut() else {
+                continue;
+            };
+            c.colour[i] = (f_near[k], f_zero[k]);
+            c.colour3[i] = f_third[k];
+            if r.excluded.is_none() || r.excluded.as_deref() == Some(reason::SATURATED) {
+                let amp2 = c.u1.norm_sqr().max(1e-300);
+                let u_var = c.input_residual_var * 0.5 * (c.inv_diag_h1[0] + c.inv_diag_h1[1]);
+                let var = (c.y1_var(i) + r.g[i].norm_sqr() * u_var) / amp2;
+                r.sigma[i] = (var + (relative_floor * r.g[i].norm()).powi(2)).sqrt();
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::TREND_NODES;
+
+    /// The nodes are the octile midpoints of `|f(x)|^2`: its integral up to node `k` is
+    /// `(2k + 1)/16` of `pi/6`.
+    #[test]
+    fn trend_nodes_split_the_trend_windows_weight_into_equal_parts() {
+        let f2 = |x: f64| {
+            let f = (x.sin() - x * x.cos()) / (x * x);
+            f * f
+        };
+        // Simpson on [0, node] (f ~ x/3 near 0, so start just above it).
+        let integral = |b: f64| {
+            let n = 200_000;
+            let h = b / n as f64;
+            let mut s = 0.0;
+            for i in 0..=n {
+                let x = (i as f64 * h).max(1e-9);
+                let w = if i == 0 || i == n {
+                    1.0
+                } else if i % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
+                s += w * f2(x);
+            }
+            s * h / 3.0
+        };
+        let total = std::f64::consts::PI / 6.0;
+        for (k, &x) in TREND_NODES.iter().enumerate() {
+            let share = integral(x) / total;
+            let want = (2 * k + 1) as f64 / 16.0;
+            assert!(
+                (share - want).abs() < 2e-3,
+                "node {k} at {x}: share {share}, want {want}"
+            );
+        }
+    }
+}

@@ -1,0 +1,6 @@
+//! What a person looks at: SVG plots ([`plot`]) and the self-contained HTML reports of the
+//! identification ([`identify`]) and of compare and diagnose ([`diagnose`]).
+
+pub mod diagnose;
+pub mod identify;
+pub mod plot;

@@ -1,0 +1,356 @@
+//! A backlash inside a force-limited servo (`backlash.in_servo = 1`), on data this project did
+//! not make: draws of the independent simulator (`zmp-indep-sim`, no physics code shared with
+//! `zmp-models`) whose drive pushes the trunk through a stiff transmission with play while the
+//! seed's acceleration limit acts on the fast, large records.
+//!
+//! The model is written from the drawn robot's own parameters (pendulum, servo, limit, play,
+//! transmission, drive, drag), nothing fitted, once with each law. Inside the servo it must
+//! reproduce every record to about its noise; as a play on the CoM command before a clamped
+//! rigid servo (`in_servo = 0`, the catalogue's first law) it must be off on the saturated
+//! records of some draw, or the test would not tell the laws apart. The saturated records are
+//! checked on their own, so the test cannot pass on the many linear records alone.
+
+use zmp_suites::docs;
+use zmp_suites::indep_loop;
+
+use docs::doc_section;
+use num_complex::Complex64;
+use zmp_campaign::read_campaign;
+use zmp_diagnose::measure::{aggregate, chi2_total, components, predict, score};
+use zmp_diagnose::run::observe_campaign;
+use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Robot};
+use zmp_models::ModelSpec;
+
+/// Single backlash draws: development seeds 2, 11 and 20 (the suite's three), and held-out
+/// seeds 1020001 and 1020019 (examined after the one run of the 1020000 range, where the
+/// loop called them unexplained with their saturated records 3.5-4x off: where the command
+/// law was found wanting).
+const DRAWS: [u64; 5] = [2, 11, 20, 1_020_001, 1_020_019];
+const SCENARIO: &str = "single:backlash";
+
+fn draw(seed: u64) -> Robot {
+    draw_with(
+        seed,
+        &SCENARIO.parse().unwrap(),
+        &Design::default(),
+        &DrawOptions {
+            coupling_form: Some(CouplingForm::Pendulum),
+        },
+    )
+}
+
+/// The model file of the drawn robot, from its parameters, its play inside the servo or not.
+fn truth_model(r: &Robot, in_servo: bool) -> ModelSpec {
+    let p = &r.pendulum;
+    let mut t = format!(
+        "format = \"zmp-model/1\"\nname = \"draw {:?}\"\n[pendulum]\n\
+         a11 = {:?}\na12 = {:?}\na21 = {:?}\na22 = {:?}\n\
+         b11 = {:?}\nb12 = {:?}\nb21 = {:?}\nb22 = {:?}\n",
+        r.seed,
+        p.a[0][0],
+        p.a[0][1],
+        p.a[1][0],
+        p.a[1][1],
+        p.b[0][0],
+        p.b[0][1],
+        p.b[1][0],
+        p.b[1][1]
+    );
+    for (k, name) in ["x", "y"].iter().enumerate() {
+        let a = &r.axes[k];
+        assert!(
+            a.friction.is_none()
+                && a.command_delay == 0.0
+                && a.servo.velocity_limit.is_none()
+                && a.modes.is_empty(),
+            "the model below holds a servo, a limit and a play per axis"
+        );
+        t += &format!(
+            "[tracking_lowpass.{name}]\nomega_n = {:?}\nzeta = {:?}\n\
+             [acceleration_saturation.{name}]\nlimit = {:?}\n",
+            a.servo.omega_n, a.servo.zeta, a.servo.accel_limit
+        );
+        if let Some(tr) = &a.transmission {
+            assert!(tr.hardening_deflection.is_none());
+            t += &format!(
+                "[backlash.{name}]\nwidth = {:?}\nin_servo = {}\ntransmission_omega = {:?}\n\
+                 transmission_zeta = {:?}\ndrive = {:?}\nload_drag = {:?}\n",
+                tr.play,
+                u8::from(in_servo),
+                tr.omega,
+                tr.zeta,
+                a.drive_mass_fraction,
+                tr.load_drag_time.map_or(0.0, |tau| 1.0 / tau),
+            );
+        }
+    }
+    assert!(
+        r.cross_coupling.is_none()
+            && r.op_dependence.is_none()
+            && r.sensor.lowpass_cutoff.is_none()
+            && r.sensor.drift_rate == [0.0, 0.0],
+        "a single backlash draw has nothing else hidden"
+    );
+    ModelSpec::parse(&t, "truth.toml").unwrap_or_else(|e| panic!("{e}\n{t}"))
+}
+
+#[test]
+fn a_force_limited_servo_driving_its_trunk_through_a_play_matches_the_independent_robot() {
+    let design = Design::default();
+    let mut played_and_saturated = 0;
+    let mut command_worst: f64 = 0.0;
+    let mut summary = String::new();
+    for seed in DRAWS {
+        let robot = draw(seed);
+        let dir = tempfile::tempdir().unwrap();
+        let camp_dir = dir.path().join("campaign");
+        write_campaign(&robot, &design, &camp_dir, true).unwrap();
+        let camp = read_campaign(&camp_dir).unwrap();
+        let (obs, _) = observe_campaign(&camp, 2);
+        let refs: Vec<_> = obs.iter().collect();
+        // The records where the limit acts: the rigid linear servo would demand a larger force.
+        let saturated: Vec<usize> = obs
+            .iter()
+            .filter(|o| {
+                let a = &robot.axes[o.excited.index()];
+                let (wn, z) = (a.servo.omega_n, a.servo.zeta);
+                let s = Complex64::new(0.0, o.omega);
+                let h = wn * wn / (s * s + 2.0 * z * wn * s + wn * wn);
+                (s * s * h).norm() * o.nominal_amplitude > a.servo.accel_limit
+            })
+            .map(|o| o.index)
+            .collect();
+        // (campaign error over its floor, worst saturated record over its floor) of a law.
+        let judge = |in_servo: bool| {
+            let preds = predict(&truth_model(&robot, in_servo), &refs).unwrap();
+            let scores: Vec<_> = refs.iter().zip(&preds).map(|(o, p)| score(o, p)).collect();
+            let (error, floor) = aggregate(&scores);
+            let worst = obs
+                .iter()
+                .zip(&scores)
+                .filter(|(o, _)| saturated.contains(&o.index))
+                .map(|(_, s)| s.error() / s.floor())
+                .fold(0.0, f64::max);
+            (error / floor, worst)
+        };
+        let t = std::time::Instant::now();
+        let (ratio, worst) = judge(true);
+        let took = t.elapsed().as_secs_f64();
+        let (command_ratio, command_worst_here) = judge(false);
+        command_worst = command_worst.max(command_worst_here);
+        let plays: Vec<String> = robot
+            .axes
+            .iter()
+            .filter_map(|a| a.transmission.as_ref())
+            .map(|t| format!("{:.2}", t.play * 1e3))
+            .collect();
+        let line = if saturated.is_empty() {
+            format!(
+                "- {} seed {seed}: play {} mm, the limit acting on no record: the drawn \
+                 robot's own model, its play inside the servo, is {ratio:.2}x the noise floor \
+                 over the campaign; as a play on the command, {command_ratio:.2}x.\n",
+                range(seed),
+                plays.join(" and "),
+            )
+        } else {
+            format!(
+                "- {} seed {seed}: play {} mm, the limit acting on {} records: the drawn \
+                 robot's own model, its play inside the servo, is {ratio:.2}x the noise floor \
+                 over the campaign and {worst:.2}x at the worst saturated record; as a play on \
+                 the command, {command_ratio:.2}x and {command_worst_here:.2}x.\n",
+                range(seed),
+                plays.join(" and "),
+                saturated.len()
+            )
+        };
+        eprintln!("{}  ({took:.1} s to predict)", line.trim_end());
+        summary.push_str(&line);
+        if !plays.is_empty() && !saturated.is_empty() {
+            played_and_saturated += 1;
+        }
+        assert!(
+            ratio <= 1.5,
+            "draw {seed}: the drawn robot's own model is {ratio:.2}x the noise floor off"
+        );
+        assert!(
+            worst <= 3.0,
+            "draw {seed}: a saturated record is {worst:.2}x its noise floor off"
+        );
+    }
+    assert!(
+        played_and_saturated >= 2,
+        "the draws must exercise the limit with a play ({played_and_saturated})"
+    );
+    assert!(
+        command_worst > 3.0,
+        "the command law should miss the saturated records somewhere (worst {command_worst:.2}x)"
+    );
+    doc_section("docs/src/effect-laws.md", "play-in-servo", &summary);
+}
+
+fn range(seed: u64) -> &'static str {
+    if seed < 900_000 {
+        "development"
+    } else {
+        "held-out"
+    }
+}
+
+/// The user's loop on development seed 11 (single backlash: from the seed's structure the loop
+/// names nothing and ends unexplained, README "passive damping") from a start model that
+/// carries the law: the seed's structure, a saturation, and `backlash.in_servo = 1` with a
+/// 0.5 mm play on both axes (`cargo xtask loop CAMPAIGN --model START.toml`). The loop must
+/// end explained within 1.5x the noise floor with the play inside the servo and its widths
+/// refitted to within 35 % of the drawn robot's. Thresholds fixed before the run. It took
+/// about five minutes on 2 cores and was run by hand; since the force-limit search starts from
+/// a grid the start model, refitted, explains the draw and the loop adds nothing (2 s), so it
+/// runs with the others and holds the README's section.
+#[test]
+#[ignore = "long: a loop on one draw of the independent simulator (minutes); `cargo xtask ci --long` runs it"]
+fn the_loop_from_a_start_model_with_the_play_inside_the_servo_explains_the_draw() {
+    let seed = 11;
+    let text = format!(
+        "{}\n[acceleration_saturation]\nlimit = 1.2\n[backlash]\nwidth = 0.0005\nin_servo = 1\n",
+        include_str!("../../../models/params/silo2-paper.toml")
+    );
+    let start = ModelSpec::parse(&text, "start.toml").unwrap();
+    let truth = draw(seed);
+    let t = std::time::Instant::now();
+    let r = indep_loop::loop_from(seed, SCENARIO, Some(start));
+    let took = t.elapsed().as_secs_f64();
+    let ratio = r.final_error / r.noise_floor;
+    let widths = [zmp_models::Axis::X, zmp_models::Axis::Y].map(|a| {
+        let b = zmp_models::Binding::Axis(a);
+        assert_eq!(
+            r.final_model.value("backlash", b, "in_servo"),
+            Some(1.0),
+            "{}",
+            r.final_model.to_toml()
+        );
+        r.final_model.value("backlash", b, "width").unwrap()
+    });
+    let drawn = [0, 1].map(|k| truth.axes[k].transmission.as_ref().unwrap().play);
+    let line = format!(
+        "- development seed {seed} ({SCENARIO}): from the start model the loop adds {} and \
+         ends at {ratio:.2}x the noise floor ({}), the plays refitted to {:.3} and {:.3} mm \
+         against the drawn robot's {:.3} and {:.3} mm.\n",
+        if r.found.is_empty() {
+            "nothing".to_string()
+        } else {
+            r.found.join(", ")
+        },
+        if r.explained {
+            "explained"
+        } else {
+            "unexplained"
+        },
+        widths[0] * 1e3,
+        widths[1] * 1e3,
+        drawn[0] * 1e3,
+        drawn[1] * 1e3,
+    );
+    eprintln!("{}  ({took:.0} s)", line.trim_end());
+    assert!(
+        r.explained && ratio <= 1.5,
+        "{ratio:.2}x the floor, explained {}",
+        r.explained
+    );
+    for k in 0..2 {
+        assert!(
+            (widths[k] / drawn[k] - 1.0).abs() <= 0.35,
+            "axis {k}: play {:.3} mm against {:.3} mm",
+            widths[k] * 1e3,
+            drawn[k] * 1e3
+        );
+    }
+    doc_section("docs/src/effect-laws.md", "play-in-servo-loop", &line);
+}
+
+/// The user's loop from the seed's structure on development seed 20 (single backlash) finds
+/// the play on the command, where the diagnosis searches it, and moves it inside the servo
+/// (`iterate::play_law`): on the command law alone it ended at 1.31x the noise floor, 4.2 per
+/// first-harmonic component. Thresholds fixed before the law was in the loop: the play named
+/// first and nothing else, the last version inside the servo on both axes (change
+/// `play-in-servo`), explained within 0.8x the floor, each width within 15 % of the drawn
+/// robot's.
+#[test]
+#[ignore = "long: a loop on one draw of the independent simulator (minutes); `cargo xtask ci --long` runs it"]
+fn the_loop_moves_the_play_it_found_inside_the_servo() {
+    let seed = 20;
+    let truth = draw(seed);
+    let r = indep_loop::loop_on(seed, SCENARIO);
+    assert_eq!(r.found, vec!["backlash".to_string()], "found {:?}", r.found);
+    // Since friction is simulated with the force limit it shares the servo with, the search
+    // names a friction here first, and the loop's look at the other amplitude law puts the
+    // play in its place, fitted inside the servo (change `backlash-for-coulomb_friction`), at
+    // once since b9c2e7b; the look at the end of the loop may then fit the play on (`refit`).
+    let changes: Vec<&str> = r.versions.iter().map(|(_, a)| a.change.as_str()).collect();
+    let inside = changes
+        .iter()
+        .position(|c| {
+            [
+                zmp_diagnose::iterate::PLAY_IN_SERVO,
+                "backlash-for-coulomb_friction",
+            ]
+            .contains(c)
+        })
+        .expect("a version that puts the play inside the servo");
+    assert!(inside >= 1, "{changes:?}");
+    assert!(
+        changes[inside + 1..].iter().all(|c| *c == "refit"),
+        "after the play went inside: {changes:?}"
+    );
+    let ratio = r.final_error / r.noise_floor;
+    assert!(
+        r.explained && ratio <= 0.8,
+        "{ratio:.2}x the floor, explained {}",
+        r.explained
+    );
+    let mut widths = [(0.0, 0.0); 2];
+    for (k, a) in [zmp_models::Axis::X, zmp_models::Axis::Y]
+        .into_iter()
+        .enumerate()
+    {
+        let b = zmp_models::Binding::Axis(a);
+        assert_eq!(r.final_model.value("backlash", b, "in_servo"), Some(1.0));
+        let width = r.final_model.value("backlash", b, "width").unwrap();
+        let drawn = truth.axes[k].transmission.as_ref().unwrap().play;
+        assert!(
+            (width / drawn - 1.0).abs() <= 0.15,
+            "axis {k}: play {:.3} mm against {:.3} mm",
+            width * 1e3,
+            drawn * 1e3
+        );
+        widths[k] = (width, drawn);
+    }
+    // Chi-square per residual component of the play on the command (the version before) and
+    // inside the servo, for the README.
+    let obs: Vec<&zmp_diagnose::observe::Observation> = r.observations.iter().collect();
+    let per = |m: &ModelSpec| {
+        let p = predict(m, &obs).unwrap();
+        chi2_total(&obs, &p) / components(&obs) as f64
+    };
+    let (before, moved) = (&r.versions[inside - 1].1, &r.versions[inside].1);
+    let line = format!(
+        "- development seed {seed} ({SCENARIO}): the loop's version `{}` is at {:.2}x the noise \
+         floor ({:.2} per residual component); the play inside the servo (`{}`{}) ends at \
+         {ratio:.2}x, {:.2} per component, explained; the plays {:.3} and {:.3} mm against the \
+         drawn robot's {:.3} and {:.3} mm.\n",
+        before.change,
+        moved.error_before / moved.noise_floor,
+        per(&before.spec),
+        moved.change,
+        if inside + 1 < changes.len() {
+            ", then fitted on"
+        } else {
+            ""
+        },
+        per(&r.final_model),
+        widths[0].0 * 1e3,
+        widths[1].0 * 1e3,
+        widths[0].1 * 1e3,
+        widths[1].1 * 1e3,
+    );
+    eprint!("{line}");
+    doc_section("docs/src/effect-laws.md", "play-in-servo-found", &line);
+}
