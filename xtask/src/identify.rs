@@ -10,6 +10,7 @@ use zmp_identify::{
     analyse_folder, analyse_records, identify_analysed, identify_with_progress, summary_json,
     write_model, Identification, IdentifyOptions,
 };
+use zmp_models::EffectKind;
 use zmp_report::identify::write_report;
 
 /// The default model path: `<campaign>/../<campaign-folder-name>-identified.toml`.
@@ -151,7 +152,7 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
             println!("warning: {w}");
         }
         if let Some(l) = ident.saturation.limit {
-            if !ident.model.has("acceleration_saturation") {
+            if !ident.model.has(EffectKind::AccelerationSaturation) {
                 println!(
                     "acceleration saturation detected (limit about {l:.3} m/s2); the model file stays linear: \
                      `cargo xtask diagnose` scores it, or pass --include-saturation"

@@ -39,7 +39,7 @@ pub fn channel_panel(ident: &Identification, ch: Channel) -> BodePanel {
     let w = logspace(lo, hi, 300);
     let g: Vec<Complex64> = w.iter().map(|&x| ident.model_response(i, j, x)).collect();
     let seed = |x: f64| {
-        let (a, b) = (SEED_PENDULUM[2 * i + j].1, SEED_PENDULUM[4 + 2 * i + j].1);
+        let (a, b) = (SEED_PENDULUM.a[i][j], SEED_PENDULUM.b[i][j]);
         (a + b * x * x)
             * TrackingLowpass {
                 omega_n: SEED_BANDWIDTH.0,
@@ -231,9 +231,10 @@ pub fn write_report(ident: &Identification, dir: &Path, force: bool) -> Result<R
     for p in ident.parameters() {
         let short = p.name.rsplit('.').next().unwrap_or(&p.name);
         let seed = SEED_PENDULUM
-            .iter()
+            .named()
+            .into_iter()
             .find(|(n, _)| *n == short && p.name.starts_with("pendulum"))
-            .map(|(_, v)| *v)
+            .map(|(_, v)| v)
             .or(match p.name.as_str() {
                 "tracking_lowpass.omega_n" => Some(SEED_BANDWIDTH.0),
                 "tracking_lowpass.zeta" => Some(SEED_BANDWIDTH.1),

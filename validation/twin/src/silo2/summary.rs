@@ -10,6 +10,7 @@ use zmp_diagnose::Diagnosis;
 use zmp_identify::Identification;
 use zmp_models::closed_loop::StepExperiment;
 use zmp_models::Axis;
+use zmp_models::EffectKind;
 
 /// One row of the `a`, `b` table.
 #[derive(Debug, Clone, Serialize)]
@@ -146,8 +147,12 @@ pub fn parameter_rows(
             return None;
         }
         let (effect, binding, name) = match key {
-            "omega_n" | "zeta" => ("tracking_lowpass", zmp_models::Binding::Axis(Axis::X), key),
-            k => ("pendulum", zmp_models::Binding::Global, k),
+            "omega_n" | "zeta" => (
+                EffectKind::TrackingLowpass,
+                zmp_models::Binding::Axis(Axis::X),
+                key,
+            ),
+            k => (EffectKind::Pendulum, zmp_models::Binding::Global, k),
         };
         d.final_model.value(effect, binding, name)
     };
