@@ -6,4 +6,5 @@ pub mod io;
 pub mod ledger;
 pub mod par;
 pub mod plot;
+pub mod robust;
 pub mod virtual_robot;
