@@ -54,10 +54,11 @@ pub mod mu;
 pub mod nyquist;
 pub mod perturbed;
 
+pub use perturbed::Perturbation;
+
 use crate::axis::Channel;
 use crate::controller::CascadeParams;
 use crate::effect::Binding;
-use crate::lti::{Poly, TransferFunction};
 use crate::model_file::{ModelError, ModelSpec};
 use crate::plant::{Plant, DEFAULT_STEP};
 use nalgebra::{DMatrix, Matrix2};
@@ -516,89 +517,9 @@ impl RobustAnalysis {
     }
 }
 
-/// A stable perturbation of one channel, `Delta(s) = delta (q - s) / (q + s)` (the constant
-/// `delta` without `q`): `|Delta(jw)| = |delta|` at every frequency, so it lies inside the
-/// weight whenever `|delta| <= 1`. Any value `Delta(jw*)` is reached at one frequency: the
-/// all-pass turns the phase by `-2 atan(w*/q)` (anywhere in `(-pi, 0)`), the sign of `delta`
-/// by `pi`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Perturbation {
-    pub channel: Channel,
-    pub delta: f64,
-    /// All-pass corner `q`, rad/s.
-    pub allpass: Option<f64>,
-    /// The frequency it was matched at, rad/s.
-    pub omega: f64,
-}
-
-impl Perturbation {
-    /// The perturbation of `channel` whose value at `j omega` is `target`.
-    pub fn matching(channel: Channel, target: Complex64, omega: f64) -> Perturbation {
-        use std::f64::consts::PI;
-        let mag = target.norm();
-        let theta = target.arg();
-        let (delta, phase) = if theta <= 0.0 {
-            (mag, theta)
-        } else {
-            (-mag, theta - PI)
-        };
-        // phase in (-pi, 0]: -2 atan(omega / q) = phase.
-        let allpass = (phase < -1e-12).then(|| omega / (-phase / 2.0).tan());
-        Perturbation {
-            channel,
-            delta,
-            allpass,
-            omega,
-        }
-    }
-
-    /// The same perturbation with its gain multiplied by `factor`.
-    pub fn scaled(&self, factor: f64) -> Perturbation {
-        Perturbation {
-            delta: self.delta * factor,
-            ..*self
-        }
-    }
-
-    pub fn at(&self, s: Complex64) -> Complex64 {
-        match self.allpass {
-            Some(q) => self.delta * (q - s) / (q + s),
-            None => Complex64::new(self.delta, 0.0),
-        }
-    }
-
-    pub fn transfer_function(&self) -> TransferFunction {
-        match self.allpass {
-            Some(q) => TransferFunction::new(
-                Poly::new(&[self.delta * q, -self.delta]),
-                Poly::new(&[q, 1.0]),
-            ),
-            None => TransferFunction::gain(self.delta),
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn perturbation_matches_any_value_with_its_gain_everywhere() {
-        let ch = Channel::ALL[3];
-        for k in 0..36 {
-            let target = Complex64::from_polar(0.7, -3.1 + 6.2 * k as f64 / 35.0);
-            let p = Perturbation::matching(ch, target, 2.5);
-            let v = p.at(Complex64::new(0.0, 2.5));
-            assert!((v - target).norm() < 1e-12, "{v} vs {target}");
-            for w in [1e-3, 0.1, 1.0, 10.0, 1e3] {
-                assert!((p.at(Complex64::new(0.0, w)).norm() - 0.7).abs() < 1e-12);
-            }
-            let tf = p.transfer_function();
-            assert!((tf.freq(2.5) - target).norm() < 1e-12);
-            // Stable: the all-pass pole is at -q < 0.
-            assert!(p.allpass.is_none_or(|q| q > 0.0));
-        }
-    }
 
     #[test]
     fn cascade_loop_is_the_controllers_transfer_function() {

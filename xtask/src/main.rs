@@ -321,11 +321,11 @@ enum Cmd {
         /// CoM displacement per radian of trunk, (m_t/m_r) l_t, m/rad (default 0.1105, the
         /// seed's convention with the ZMP error in cm; only its product with the error scale
         /// matters).
-        #[arg(long, value_name = "M_PER_RAD")]
+        #[arg(long, value_name = "M_PER_RAD", allow_negative_numbers = true)]
         trunk_gain: Option<f64>,
         /// Controller sample period, s (default 0.01; 0 for the continuous controller). Enters
         /// as the zero-order hold's delay.
-        #[arg(long, value_name = "S")]
+        #[arg(long, value_name = "S", allow_negative_numbers = true)]
         period: Option<f64>,
         /// Write |T| against 1/|W| per channel and the structured bound (SVG).
         #[arg(long, value_name = "FILE.svg")]
@@ -371,6 +371,10 @@ enum ValidateRobot {
         /// The short version (what CI and the demo run): 10 campaign records instead of 144.
         #[arg(long)]
         short: bool,
+        /// The campaign extended to 50 rad/s (240 records: 0.1 and 0.2 mm of CoM from 14 to
+        /// 50 rad/s added), to tell the stance resonance from an in-band surrogate.
+        #[arg(long, conflicts_with = "short")]
+        extended: bool,
         /// Replace OUT if it holds an earlier validation.
         #[arg(long)]
         force: bool,
@@ -380,7 +384,7 @@ enum ValidateRobot {
         /// Also write this run's numbers into the README at PATH, between its
         /// `<!-- twin-silo2:... -->` markers (full run only): how the README's twin tables
         /// are made.
-        #[arg(long, value_name = "PATH", conflicts_with = "short")]
+        #[arg(long, value_name = "PATH", conflicts_with_all = ["short", "extended"])]
         readme: Option<PathBuf>,
     },
 }
@@ -526,6 +530,7 @@ fn dispatch(command: Cmd) -> Result<()> {
                 ValidateRobot::Silo2 {
                     out,
                     short,
+                    extended,
                     force,
                     json,
                     readme,
@@ -533,6 +538,7 @@ fn dispatch(command: Cmd) -> Result<()> {
         } => twin::validate_silo2(&twin::Silo2Args {
             out: out.as_deref(),
             short,
+            extended,
             force,
             json,
             readme: readme.as_deref(),

@@ -1,5 +1,7 @@
-//! The plant with one channel perturbed, stepped in time: what a [`Perturbation`] does to a
-//! closed loop, independently of the frequency-domain check that names it.
+//! A perturbation of one channel ([`Perturbation`]: the stable all-pass that takes a given
+//! value at one frequency), and the plant with it stepped in time ([`PerturbedPlant`]): what
+//! the perturbation does to a closed loop, independently of the frequency-domain check that
+//! names it.
 //!
 //! `G_k -> G_k (1 + W_k Delta)` on channel `k = (i, j)` is the nominal plant plus the path
 //! `W_k Delta G_k u_j` into output `i`. Both are the project's plant stepper ([`Plant`]): the
@@ -10,12 +12,76 @@
 //! ([`DiscreteLti`]), its input ramping between the plant's internal steps as the plant's own
 //! channel blocks do.
 
-use super::{Perturbation, Weights};
+use super::Weights;
+use crate::axis::Channel;
 use crate::controller::{CascadeController, CascadeParams};
 use crate::effect::{Binding, Site};
 use crate::lti::{DiscreteLti, Poly, TransferFunction};
 use crate::model_file::{ModelError, ModelSpec};
 use crate::plant::Plant;
+use num_complex::Complex64;
+
+/// A stable perturbation of one channel, `Delta(s) = delta (q - s) / (q + s)` (the constant
+/// `delta` without `q`): `|Delta(jw)| = |delta|` at every frequency, so it lies inside the
+/// weight whenever `|delta| <= 1`. Any value `Delta(jw*)` is reached at one frequency: the
+/// all-pass turns the phase by `-2 atan(w*/q)` (anywhere in `(-pi, 0)`), the sign of `delta`
+/// by `pi`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Perturbation {
+    pub channel: Channel,
+    pub delta: f64,
+    /// All-pass corner `q`, rad/s.
+    pub allpass: Option<f64>,
+    /// The frequency it was matched at, rad/s.
+    pub omega: f64,
+}
+
+impl Perturbation {
+    /// The perturbation of `channel` whose value at `j omega` is `target`.
+    pub fn matching(channel: Channel, target: Complex64, omega: f64) -> Perturbation {
+        use std::f64::consts::PI;
+        let mag = target.norm();
+        let theta = target.arg();
+        let (delta, phase) = if theta <= 0.0 {
+            (mag, theta)
+        } else {
+            (-mag, theta - PI)
+        };
+        // phase in (-pi, 0]: -2 atan(omega / q) = phase.
+        let allpass = (phase < -1e-12).then(|| omega / (-phase / 2.0).tan());
+        Perturbation {
+            channel,
+            delta,
+            allpass,
+            omega,
+        }
+    }
+
+    /// The same perturbation with its gain multiplied by `factor`.
+    pub fn scaled(&self, factor: f64) -> Perturbation {
+        Perturbation {
+            delta: self.delta * factor,
+            ..*self
+        }
+    }
+
+    pub fn at(&self, s: Complex64) -> Complex64 {
+        match self.allpass {
+            Some(q) => self.delta * (q - s) / (q + s),
+            None => Complex64::new(self.delta, 0.0),
+        }
+    }
+
+    pub fn transfer_function(&self) -> TransferFunction {
+        match self.allpass {
+            Some(q) => TransferFunction::new(
+                Poly::new(&[self.delta * q, -self.delta]),
+                Poly::new(&[q, 1.0]),
+            ),
+            None => TransferFunction::gain(self.delta),
+        }
+    }
+}
 
 /// The plant of a model file with one channel perturbed.
 #[derive(Debug)]
@@ -50,7 +116,7 @@ impl PerturbedPlant {
         let nominal = nominal_spec(spec);
         let mut isolated = nominal.clone();
         isolated.remove("sensor_drift");
-        for ch in crate::Channel::ALL {
+        for ch in Channel::ALL {
             if ch != p.channel {
                 for c in ["a", "b"] {
                     let key = format!("{c}{}", ch.suffix());
@@ -152,4 +218,27 @@ pub fn step_error(
         zmp = plant.advance(com_ref, sub);
     }
     err
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn perturbation_matches_any_value_with_its_gain_everywhere() {
+        let ch = Channel::ALL[3];
+        for k in 0..36 {
+            let target = Complex64::from_polar(0.7, -3.1 + 6.2 * k as f64 / 35.0);
+            let p = Perturbation::matching(ch, target, 2.5);
+            let v = p.at(Complex64::new(0.0, 2.5));
+            assert!((v - target).norm() < 1e-12, "{v} vs {target}");
+            for w in [1e-3, 0.1, 1.0, 10.0, 1e3] {
+                assert!((p.at(Complex64::new(0.0, w)).norm() - 0.7).abs() < 1e-12);
+            }
+            let tf = p.transfer_function();
+            assert!((tf.freq(2.5) - target).norm() < 1e-12);
+            // Stable: the all-pass pole is at -q < 0.
+            assert!(p.allpass.is_none_or(|q| q > 0.0));
+        }
+    }
 }
