@@ -1,6 +1,8 @@
 //! What a person looks at: SVG plots ([`plot`]) and the self-contained HTML reports of the
-//! identification ([`identify`]) and of compare and diagnose ([`diagnose`]).
+//! identification ([`identify`]) and of compare and diagnose ([`diagnose`]), and the summary and
+//! figure of the robust-stability check ([`robust`]).
 
 pub mod diagnose;
 pub mod identify;
 pub mod plot;
+pub mod robust;

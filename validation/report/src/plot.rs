@@ -141,6 +141,7 @@ fn e<T: std::fmt::Debug>(x: T) -> anyhow::Error {
 fn draw_bode<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     panel: &BodePanel,
+    with_phase: bool,
 ) -> Result<()>
 where
     DB::ErrorType: 'static,
@@ -166,17 +167,19 @@ where
         finite_range(phases.iter().flatten().copied()).unwrap_or((-10.0, 10.0)),
         20.0,
     );
-    let (top, bottom) = area.split_vertically(area.dim_in_pixel().1 * 55 / 100);
+    let split = if with_phase { 55 } else { 100 };
+    let (top, bottom) = area.split_vertically(area.dim_in_pixel().1 * split / 100);
 
     let mut mag = ChartBuilder::on(&top)
         .caption(&panel.title, ("sans-serif", 18))
         .margin(6)
-        .x_label_area_size(22)
+        .x_label_area_size(if with_phase { 22 } else { 34 })
         .y_label_area_size(52)
         .build_cartesian_2d((wlo..whi).log_scale(), mlo..mhi)
         .map_err(e)?;
     mag.configure_mesh()
         .y_desc("magnitude (dB)")
+        .x_desc(if with_phase { "" } else { "omega (rad/s)" })
         .x_labels(6)
         .y_labels(6)
         .draw()
@@ -232,6 +235,9 @@ where
         .label_font(("sans-serif", 12))
         .draw()
         .map_err(e)?;
+    if !with_phase {
+        return Ok(());
+    }
 
     let mut ph = ChartBuilder::on(&bottom)
         .margin(6)
@@ -299,16 +305,40 @@ where
 
 /// Renders Bode panels on a grid of `cols` columns into one SVG file.
 pub fn bode_svg(path: &Path, panels: &[BodePanel], cols: usize, overwrite: bool) -> Result<()> {
+    panels_svg(path, panels, cols, overwrite, true)
+}
+
+/// Renders the magnitude halves of Bode panels (gains, bounds: where a phase means nothing) on
+/// a grid of `cols` columns into one SVG file.
+pub fn magnitude_svg(
+    path: &Path,
+    panels: &[BodePanel],
+    cols: usize,
+    overwrite: bool,
+) -> Result<()> {
+    panels_svg(path, panels, cols, overwrite, false)
+}
+
+fn panels_svg(
+    path: &Path,
+    panels: &[BodePanel],
+    cols: usize,
+    overwrite: bool,
+    with_phase: bool,
+) -> Result<()> {
     let cols = cols.max(1);
     let rows = panels.len().div_ceil(cols).max(1);
-    let (w, h) = (520 * cols as u32, 460 * rows as u32);
+    let (w, h) = (
+        520 * cols as u32,
+        if with_phase { 460 } else { 300 } * rows as u32,
+    );
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(e)?;
         let cells = root.split_evenly((rows, cols));
         for (cell, panel) in cells.iter().zip(panels) {
-            draw_bode(cell, panel)?;
+            draw_bode(cell, panel, with_phase)?;
         }
         root.present().map_err(e)?;
     }

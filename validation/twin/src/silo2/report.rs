@@ -147,9 +147,21 @@ pub fn write_html(
          <code>cargo xtask validate silo2{}</code>; the numbers are in <code>summary.json</code>.\
          </p>\n",
         esc(&s.model_file),
-        if s.short { "short" } else { "full" },
+        if s.short {
+            "short"
+        } else if s.extended {
+            "extended"
+        } else {
+            "full"
+        },
         s.wall_s,
-        if s.short { " --short" } else { "" }
+        if s.short {
+            " --short"
+        } else if s.extended {
+            " --extended"
+        } else {
+            ""
+        }
     );
 
     // The twin.
@@ -402,6 +414,7 @@ pub fn write_html(
         );
     }
     h.push_str("</ul>\n");
+    stance_section(&mut h, s);
 
     // Frames.
     h.push_str("<h2>The robot during the disturbance experiment</h2>\n");
@@ -419,4 +432,52 @@ pub fn write_html(
     }
     h.push_str("</body></html>\n");
     zmp_files::atomic_write(path, h.as_bytes(), false)
+}
+
+/// The stance resonance swept on the model file and the verdict on the named mode.
+fn stance_section(h: &mut String, s: &Summary) {
+    let band = s
+        .stance
+        .first()
+        .and_then(|a| Some((a.swept.first()?.omega, a.swept.last()?.omega)));
+    let _ =
+        write!(
+        h,
+        "<h2>Stance resonance: the named mode against the model file</h2>\n<p>The load-cell ZMP \
+         over the rigid robot's prediction from the measured trunk motion (the trunk servo \
+         divided out), swept noise-free on the model file{}, and the <code>structural_mode</code> \
+         law fitted to it. A mode the diagnosis names is the physical resonance only if it sits \
+         within 15 % of the swept one and the model with it predicts the twin's response at that \
+         frequency within 30 %; otherwise it is an in-band surrogate (below a mode its factor is \
+         1 + (share/wm<sup>2</sup>) w<sup>2</sup>: a campaign ending below the resonance fixes \
+         that curvature and little else).</p>\n<table><tr><th>axis</th><th>swept resonance \
+         (wm, zeta, share)</th><th>peak |factor|</th><th>named mode (wm, zeta, share)</th>\
+         <th>|G| at its wm: twin, model</th><th>verdict</th></tr>\n",
+        band.map_or(String::new(), |(a, b)| format!(" from {a:.0} to {b:.0} rad/s"))
+    );
+    for a in &s.stance {
+        let f = a.fitted;
+        let _ = writeln!(
+            h,
+            "<tr><td class=l>{}</td><td>{:.1} rad/s, {:.3}, {:.2}</td><td>{:.2} at {:.1} rad/s</td>\
+             <td>{}</td><td>{}</td><td class=l><b>{}</b></td></tr>",
+            a.axis,
+            f.omega_n,
+            f.zeta,
+            f.share,
+            a.peak_magnitude,
+            a.peak_omega,
+            a.named.map_or("none".into(), |m| format!(
+                "{}: {:.1} rad/s, {:.3}, {:.3}",
+                a.named_effect.as_deref().unwrap_or(""),
+                m.omega_n,
+                m.zeta,
+                m.share
+            )),
+            a.at_named
+                .map_or("".into(), |(t, n)| format!("{t:.1}, {n:.1}")),
+            esc(&a.verdict)
+        );
+    }
+    h.push_str("</table>\n");
 }

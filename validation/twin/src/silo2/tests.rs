@@ -7,7 +7,7 @@ use super::*;
 use crate::zmp::GRAVITY;
 use std::sync::OnceLock;
 
-fn twin() -> Silo2 {
+pub(super) fn twin() -> Silo2 {
     Silo2::load(&default_mjcf()).expect("models/mjcf/silo2.xml loads")
 }
 
@@ -172,7 +172,7 @@ fn the_stated_zmp_delay_delays_the_measured_zmp() {
 }
 
 /// The short validation, run once for the tests below (about 20 s of CPU in release).
-fn short_run() -> &'static (tempfile::TempDir, Summary) {
+pub(super) fn short_run() -> &'static (tempfile::TempDir, Summary) {
     static RUN: OnceLock<(tempfile::TempDir, Summary)> = OnceLock::new();
     RUN.get_or_init(|| {
         let dir = tempfile::tempdir().unwrap();
@@ -181,6 +181,7 @@ fn short_run() -> &'static (tempfile::TempDir, Summary) {
             model: default_mjcf(),
             out: out.clone(),
             short: true,
+            extended: false,
             force: false,
             threads: 2,
             quiet: true,
@@ -348,3 +349,5 @@ fn the_readme_sections_quote_the_run() {
         secs[2].1
     );
 }
+
+mod findings;
