@@ -112,19 +112,21 @@ enum Cmd {
         json: bool,
     },
     /// The second seed on the SABIAN MuJoCo twin: calibrate the effective centre of mass from
-    /// the two ankle force/torque sensors (the seed's upright + 1 degree design and a D-optimal
-    /// design, each over noise draws, against MuJoCo's true CoM), build the virtual models
-    /// n, r, s, v (and e: the error mass where the calibration puts it), walk the seed's
-    /// 8-step gait with each on the twin with the true masses, and write com-calibration.toml,
-    /// report.html (the seed's tables 2-4 beside ours) and SVG figures into OUT.
+    /// the two ankle force/torque sensors (the seed's upright + 1 degree design, with and
+    /// without its eq. 7 joint moments, and a D-optimal design, each over noise draws, against
+    /// MuJoCo's true CoM), build the virtual models n, r, s, v (and e: the error mass where the
+    /// calibration puts it), walk the seed's 8-step gait with each on the twin with the true
+    /// masses, open loop and with the seed's Torso Position Control (its effort per model), and
+    /// write com-calibration.toml, report.html (the seed's tables 2-4 beside ours) and SVG
+    /// figures into OUT.
     CalibrateCom {
         /// Output folder.
         #[arg(long, default_value = "out/com-calibration")]
         out: PathBuf,
-        /// The short version (1 walk per model, 40 noise draws), as in the demo.
+        /// The short version (1 walk per model and control, 40 noise draws), as in the demo.
         #[arg(long)]
         quick: bool,
-        /// Walking runs per model (default 5, the seed's).
+        /// Walking runs per model and control (default 5, the seed's).
         #[arg(long)]
         runs: Option<usize>,
         /// Noise draws of each calibration (default 200).
