@@ -1,6 +1,8 @@
 //! What a person looks at: SVG plots ([`plot`]) and the self-contained HTML reports of the
-//! identification ([`identify`]) and of compare and diagnose ([`diagnose`]).
+//! identification ([`identify`]) and of compare and diagnose ([`diagnose`]), with what they
+//! share ([`html`]).
 
 pub mod diagnose;
+pub mod html;
 pub mod identify;
 pub mod plot;
