@@ -1,7 +1,7 @@
-//! Figures as self-contained SVG: Bode diagrams (magnitude and phase over log frequency), time
-//! overlays and curves against frequency ([`time`]), and bar charts ([`bars`]). Legends are a
-//! row of keys above each plot ([`legend`]), never over the data. Rendered in memory, written
-//! atomically.
+//! Figures as self-contained SVG: Bode diagrams (magnitude and phase over log frequency,
+//! [`bode_svg`]), time overlays ([`time_svg`]), curves against log frequency
+//! ([`frequency_svg`]) and bar charts ([`bars_svg`]). Each plot's key is a row above it, never
+//! over the data. Rendered in memory, written atomically.
 
 use anyhow::{anyhow, Result};
 use num_complex::Complex64;
@@ -157,7 +157,7 @@ fn e<T: std::fmt::Debug>(x: T) -> anyhow::Error {
 }
 
 /// Width of a Bode diagram's y label area, px (the legend's keys start there too).
-const BODE_LEFT: i32 = 60;
+const BODE_LEFT: i32 = 68;
 
 fn draw_bode<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panel: &BodePanel) -> Result<()>
 where
@@ -199,6 +199,8 @@ where
     };
     let mut mag = ChartBuilder::on(&top)
         .margin(6)
+        // The last x label is centred on the axis' end: room for its right half.
+        .margin_right(16)
         .x_label_area_size(if bottom.is_some() { 22 } else { 38 })
         .y_label_area_size(BODE_LEFT as u32 - 6)
         .build_cartesian_2d((wlo..whi).log_scale(), mlo..mhi)
@@ -259,6 +261,8 @@ where
     };
     let mut ph = ChartBuilder::on(&bottom)
         .margin(6)
+        // The last x label is centred on the axis' end: room for its right half.
+        .margin_right(16)
         .x_label_area_size(38)
         .y_label_area_size(BODE_LEFT as u32 - 6)
         .build_cartesian_2d((wlo..whi).log_scale(), plo..phi)
