@@ -7,13 +7,12 @@
 //! the gate needs, and the count binaries stay plain programs that a person can run by hand.
 
 use anyhow::{anyhow, bail, Context, Result};
-use sha2::{Digest, Sha256};
 use std::collections::{BTreeSet, HashMap};
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-use super::gate::{Fingerprint, Measured};
+use super::gate::Measured;
 use crate::env::repo_root;
 
 /// What one repetition of a bench is.
@@ -437,149 +436,9 @@ pub fn run(
         .collect()
 }
 
-fn first_line(program: &str, args: &[&str]) -> Result<String> {
-    let out = Command::new(program)
-        .args(args)
-        .current_dir(repo_root())
-        .stdin(Stdio::null())
-        .output()
-        .with_context(|| format!("running {program} {}", args.join(" ")))?;
-    if !out.status.success() {
-        bail!("{program} {} failed ({})", args.join(" "), out.status);
-    }
-    Ok(String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .next()
-        .unwrap_or("")
-        .trim()
-        .to_string())
-}
-
-/// The fingerprint of this machine and checkout.
-pub fn fingerprint() -> Result<Fingerprint> {
-    let rustc = std::env::var("RUSTC").unwrap_or_else(|_| "rustc".into());
-    let lock_path = repo_root().join("Cargo.lock");
-    let lock = std::fs::read_to_string(&lock_path)
-        .with_context(|| format!("reading {}", lock_path.display()))?;
-    Ok(Fingerprint {
-        rustc: first_line(&rustc, &["-V"])?,
-        cargo_lock: lock_closure_hash(&lock, &["zmp-bench", "zmp-fmu"])
-            .with_context(|| format!("reading {}", lock_path.display()))?,
-        glibc: first_line("getconf", &["GNU_LIBC_VERSION"])?,
-        valgrind: first_line("valgrind", &["--version"])
-            .context("valgrind is needed for the instruction counts: run `cargo xtask setup`")?,
-    })
-}
-
-/// SHA-256 over the sorted `name version checksum` lines of the `Cargo.lock` packages that
-/// `roots` depend on, transitively (the roots and other workspace members included, by name
-/// and version only: their code is what the gate measures).
-pub fn lock_closure_hash(lock: &str, roots: &[&str]) -> Result<String> {
-    #[derive(serde::Deserialize)]
-    struct Lock {
-        package: Vec<Package>,
-    }
-    #[derive(serde::Deserialize)]
-    struct Package {
-        name: String,
-        version: String,
-        checksum: Option<String>,
-        #[serde(default)]
-        dependencies: Vec<String>,
-    }
-    let lock: Lock = toml::from_str(lock).context("parsing Cargo.lock")?;
-    let mut by_name: HashMap<&str, Vec<&Package>> = HashMap::new();
-    for p in &lock.package {
-        by_name.entry(p.name.as_str()).or_default().push(p);
-    }
-    // A dependency is "name" (unique in the lock) or "name version" (or "name version (source)").
-    let resolve = |dep: &str| -> Result<&Package> {
-        let mut parts = dep.split_whitespace();
-        let name = parts.next().unwrap_or("");
-        let version = parts.next();
-        let candidates = by_name
-            .get(name)
-            .ok_or_else(|| anyhow!("Cargo.lock: dependency {dep:?} has no [[package]]"))?;
-        match version {
-            None if candidates.len() == 1 => Ok(candidates[0]),
-            None => bail!("Cargo.lock: dependency {dep:?} is ambiguous"),
-            Some(v) => candidates
-                .iter()
-                .copied()
-                .find(|p| p.version == v)
-                .ok_or_else(|| anyhow!("Cargo.lock: dependency {dep:?} has no [[package]]")),
-        }
-    };
-    let mut seen: BTreeSet<String> = BTreeSet::new();
-    let mut stack: Vec<&Package> = roots.iter().map(|r| resolve(r)).collect::<Result<_>>()?;
-    while let Some(p) = stack.pop() {
-        let line = format!(
-            "{} {} {}",
-            p.name,
-            p.version,
-            p.checksum.as_deref().unwrap_or("-")
-        );
-        if seen.insert(line) {
-            for d in &p.dependencies {
-                stack.push(resolve(d)?);
-            }
-        }
-    }
-    let mut h = Sha256::new();
-    for line in &seen {
-        h.update(line.as_bytes());
-        h.update(b"\n");
-    }
-    let digest = h.finalize();
-    let hex: String = digest.iter().map(|b| format!("{b:02x}")).collect();
-    Ok(format!("sha256:{hex} ({} packages)", seen.len()))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    const LOCK: &str = r#"
-version = 4
-
-[[package]]
-name = "a"
-version = "0.1.0"
-dependencies = ["b", "c 1.0.0"]
-
-[[package]]
-name = "b"
-version = "2.0.0"
-checksum = "bb"
-
-[[package]]
-name = "c"
-version = "1.0.0"
-checksum = "c1"
-
-[[package]]
-name = "c"
-version = "2.0.0"
-checksum = "c2"
-
-[[package]]
-name = "unrelated"
-version = "9.0.0"
-checksum = "uu"
-"#;
-
-    #[test]
-    fn lock_hash_covers_the_closure_only() {
-        let h = lock_closure_hash(LOCK, &["a"]).unwrap();
-        assert!(h.ends_with("(3 packages)"), "{h}");
-        // A package outside the closure may change without changing the hash.
-        let other = LOCK.replace("\"uu\"", "\"vv\"");
-        assert_eq!(lock_closure_hash(&other, &["a"]).unwrap(), h);
-        // A dependency inside it may not.
-        let bumped = LOCK.replace("checksum = \"c1\"", "checksum = \"c9\"");
-        assert_ne!(lock_closure_hash(&bumped, &["a"]).unwrap(), h);
-        assert!(lock_closure_hash(LOCK, &["missing"]).is_err());
-    }
 
     #[test]
     fn registry_names_are_unique_and_tolerances_follow_the_rule() {

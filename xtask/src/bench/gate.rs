@@ -21,8 +21,9 @@ pub const FORMAT: &str = "zmp-bench-baseline/1";
 pub struct Fingerprint {
     /// `rustc -V` of the toolchain that built the count binaries.
     pub rustc: String,
-    /// SHA-256 of the `Cargo.lock` entries (name, version, checksum) of the count binaries'
-    /// and the FMU's dependency closure: a dependency that they do not use may change freely.
+    /// SHA-256 of the third-party crates (name, version, source) compiled into the count
+    /// binaries and the FMU (normal and build dependencies, from `cargo metadata`): a test-only
+    /// dependency or a new workspace member does not change it.
     pub cargo_lock: String,
     /// `getconf GNU_LIBC_VERSION`.
     pub glibc: String,

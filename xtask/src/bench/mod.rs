@@ -13,6 +13,7 @@
 //!    `bench/README.md`.
 
 pub mod counts;
+pub mod fingerprint;
 pub mod gate;
 pub mod history;
 pub mod wall;
@@ -98,7 +99,7 @@ pub struct CountOutcome {
 pub fn counts_and_gate(args: &BenchArgs) -> Result<CountOutcome> {
     let benches = selected(args)?;
     let baseline_path = args.baseline.clone().unwrap_or_else(default_baseline);
-    let fingerprint = counts::fingerprint()?;
+    let fingerprint = fingerprint::fingerprint()?;
     let measured = measure_counts(&benches, args.planted_regression)?;
     if args.save_baseline {
         if args.planted_regression {
