@@ -22,7 +22,9 @@ use panels::{bode_panels, error_panels, group_bars, harmonic_panel, record_panel
 
 /// What a comparison report shows: the campaign's observations against one or more models.
 pub struct Overlay<'a> {
+    /// The model's name in legends and tables.
     pub label: &'a str,
+    /// The model's prediction of every record of the campaign, in the campaign's order.
     pub predictions: &'a [Prediction],
 }
 

@@ -152,11 +152,13 @@ fn uncertainty_panel(ident: &Identification, c: usize) -> BodePanel {
 /// Paths of what [`write_report`] wrote.
 #[derive(Debug, Clone)]
 pub struct ReportFiles {
+    /// The report itself.
     pub html: PathBuf,
     /// `bode_G11.svg` .. `bode_G22.svg`.
     pub bode: Vec<PathBuf>,
     /// All four channels in one figure.
     pub bode_all: PathBuf,
+    /// The identified multiplicative uncertainty weights against the measured scatter.
     pub uncertainty: PathBuf,
 }
 

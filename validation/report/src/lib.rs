@@ -1,6 +1,7 @@
 //! What a person looks at: SVG plots ([`plot`]) and the self-contained HTML reports of the
 //! identification ([`identify`]) and of compare and diagnose ([`diagnose`]), with what they
 //! share ([`html`]), and the summary and figure of the robust-stability check ([`robust`]).
+#![warn(missing_docs)]
 
 pub mod diagnose;
 pub mod html;

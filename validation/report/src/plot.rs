@@ -35,18 +35,26 @@ pub const PALETTE: [RGBColor; 6] = [
 /// How a series is drawn.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Style {
+    /// A solid line (a model's prediction).
     Line,
+    /// A dashed line (a reference or a second model).
     Dashed,
+    /// Markers without a line (measurements).
     Points,
 }
 
 /// One curve or point set of a Bode diagram.
 #[derive(Debug, Clone)]
 pub struct BodeSeries {
+    /// The legend's entry.
     pub label: String,
+    /// Frequencies (rad/s).
     pub omega: Vec<f64>,
+    /// The complex response at `omega`.
     pub value: Vec<Complex64>,
+    /// Line, dashed or points.
     pub style: Style,
+    /// Line or marker colour.
     pub color: RGBColor,
     /// Optional 1-sigma magnitude error (same unit as |value|), drawn as 2-sigma error bars on
     /// points.
@@ -54,6 +62,7 @@ pub struct BodeSeries {
 }
 
 impl BodeSeries {
+    /// A solid curve (a model's response).
     pub fn line(
         label: &str,
         omega: Vec<f64>,
@@ -69,6 +78,7 @@ impl BodeSeries {
             magnitude_error: None,
         }
     }
+    /// A point set (measured responses).
     pub fn points(
         label: &str,
         omega: Vec<f64>,
@@ -84,6 +94,7 @@ impl BodeSeries {
             magnitude_error: None,
         }
     }
+    /// The same series drawn dashed.
     pub fn dashed(self) -> BodeSeries {
         BodeSeries {
             style: Style::Dashed,
@@ -95,23 +106,32 @@ impl BodeSeries {
 /// A shaded magnitude band (e.g. the uncertainty set), in dB, drawn behind the series.
 #[derive(Debug, Clone)]
 pub struct Band {
+    /// The legend's entry.
     pub label: String,
+    /// Frequencies (rad/s).
     pub omega: Vec<f64>,
+    /// Lower edge of the band at `omega` (dB).
     pub lower_db: Vec<f64>,
+    /// Upper edge of the band at `omega` (dB).
     pub upper_db: Vec<f64>,
+    /// Fill colour (drawn translucent).
     pub color: RGBColor,
 }
 
 /// One Bode diagram: a title, its series, an optional band.
 #[derive(Debug, Clone, Default)]
 pub struct BodePanel {
+    /// Printed above the panel.
     pub title: String,
+    /// The curves and point sets, drawn in order.
     pub series: Vec<BodeSeries>,
+    /// Shaded magnitude bands, drawn behind the series.
     pub bands: Vec<Band>,
     /// Magnitude alone (the series' phase means nothing, e.g. error magnitudes).
     pub magnitude_only: bool,
 }
 
+/// The magnitude of `v` in decibels (`20 log10 |v|`, floored at -6000 dB for zero).
 pub fn db(v: Complex64) -> f64 {
     20.0 * v.norm().max(1e-300).log10()
 }

@@ -17,29 +17,37 @@ pub struct ChannelSummary {
     pub channel: String,
     /// The weight `W = k (s + z) / (s + p)`.
     pub k: f64,
+    /// The weight's zero `z` (rad/s).
     pub z: f64,
+    /// The weight's pole `p` (rad/s).
     pub p: f64,
     /// `max_w |W T|`, and where (rad/s).
     pub wt_peak: f64,
+    /// The frequency of [`Self::wt_peak`] (rad/s).
     pub omega: f64,
 }
 
 /// The check's result as printed (`--json`: this structure).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct RobustSummary {
+    /// Which controller was checked (the model file's or the named gains).
     pub controller: String,
     /// Closed-loop poles in the right half-plane without perturbation (`null`: one on the
     /// imaginary axis).
     pub unstable_poles: Option<usize>,
+    /// Stable without perturbation (no closed-loop pole in the closed right half-plane).
     pub nominally_stable: bool,
     /// Stable for every perturbation inside the weights, all channels at once.
     pub robustly_stable: bool,
     /// Peak over frequency of the structured (`mu`) upper bound, and where (rad/s).
     pub mu_peak: Option<f64>,
+    /// The frequency of [`Self::mu_peak`] (rad/s).
     pub mu_omega: Option<f64>,
     /// `1 / mu_peak`: how far the weights could grow before the loop can be destabilised.
     pub margin: Option<f64>,
+    /// The channel whose `max_w |W T|` is largest (`G11` .. `G22`).
     pub tightest_channel: Option<String>,
+    /// Each channel's weight and peak of `|W T|`.
     pub channels: Vec<ChannelSummary>,
     /// The one-line verdict.
     pub line: String,

@@ -160,9 +160,15 @@ mod tests {
         // lib and build: the members a and member are ours, test is dev-only, other unrelated.
         assert!(h.ends_with("(2 packages)"), "{h}");
         // A dev-dependency may change freely.
-        assert_eq!(closure_hash(&metadata("roxmltree", "registry"), &["a"]).unwrap(), h);
+        assert_eq!(
+            closure_hash(&metadata("roxmltree", "registry"), &["a"]).unwrap(),
+            h
+        );
         // A shipped dependency from another source may not.
-        assert_ne!(closure_hash(&metadata("scraper", "git"), &["a"]).unwrap(), h);
+        assert_ne!(
+            closure_hash(&metadata("scraper", "git"), &["a"]).unwrap(),
+            h
+        );
         assert!(closure_hash(&metadata("x", "registry"), &["missing"]).is_err());
     }
 }

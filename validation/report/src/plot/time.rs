@@ -15,18 +15,26 @@ use zmp_files::atomic_write;
 /// One curve of a time plot.
 #[derive(Debug, Clone)]
 pub struct TimeSeries {
+    /// The legend's entry.
     pub label: String,
+    /// Sample times (s).
     pub t: Vec<f64>,
+    /// Values at `t`, in the panel's unit.
     pub y: Vec<f64>,
+    /// Line colour.
     pub color: RGBColor,
+    /// Line, dashed or points.
     pub style: Style,
 }
 
 /// One panel of a time plot: shared x axis, its own y axis.
 #[derive(Debug, Clone, Default)]
 pub struct TimePanel {
+    /// Printed above the panel.
     pub title: String,
+    /// The y axis' label, with its unit.
     pub y_label: String,
+    /// The curves, drawn in order.
     pub series: Vec<TimeSeries>,
     /// Vertical markers: (time, label).
     pub markers: Vec<(f64, String)>,
