@@ -5,6 +5,7 @@ mod calibrate;
 mod ci;
 mod demo;
 mod demo_com;
+mod design_next;
 mod diagnose;
 mod env;
 mod fmu;
@@ -163,7 +164,9 @@ enum Cmd {
     /// 14 frequencies (0.5-15 rad/s) x 2 excited channels at 200 Hz, 0.5 mm ZMP noise,
     /// 0.1 mm quantisation. A design file is TOML with the fields of that design
     /// (operating_points, amplitudes, omegas, excited, sample_rate_hz, transient_s, periods,
-    /// min_steady_s, zmp_noise_std, quantisation, seed, internal_step, record_com).
+    /// min_steady_s, zmp_noise_std, quantisation, seed, internal_step, record_com), or lists
+    /// its records instead of the grid ([[records]] with excited, omega, amplitude,
+    /// operating_point: what design-next writes). docs/src/spec/design-format.md.
     Simulate {
         /// Model file (zmp-model/1).
         #[arg(long, default_value = "models/params/silo2-paper.toml")]
@@ -177,10 +180,43 @@ enum Cmd {
         /// Campaign folder to write.
         #[arg(long)]
         out: PathBuf,
+        /// Write this campaign with the design's records after its own (their noise drawn
+        /// after its records'): the campaign a designed experiment extends.
+        #[arg(long, value_name = "CAMPAIGN")]
+        append: Option<PathBuf>,
         /// Replace an existing campaign folder.
         #[arg(long)]
         force: bool,
         /// Print a machine-readable summary.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Design the records that separate two or three rival models (T-optimal: each taken as
+    /// true, the others refitted to it with every parameter) within the robot's limits; writes
+    /// a design file that `simulate --design` and zmp-indep-sim run, prints the predicted
+    /// separations (noise standard deviations), recording time and limits (design-next.md).
+    DesignNext {
+        /// Campaign folder (with campaign.toml).
+        campaign: PathBuf,
+        /// A rival model file (zmp-model/1); give two or three.
+        #[arg(long = "model", value_name = "M.toml")]
+        models: Vec<PathBuf>,
+        /// Most records proposed.
+        #[arg(long, default_value_t = zmp_diagnose::design::MAX_RECORDS)]
+        max_records: usize,
+        /// Separation (noise standard deviations) at which the design stops.
+        #[arg(long, default_value_t = zmp_diagnose::design::TARGET_SIGMA)]
+        target: f64,
+        /// Noise seed written into the design (for the simulators).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Design file to write (default <campaign>-design-next.toml beside the campaign).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Overwrite an existing design file.
+        #[arg(long)]
+        force: bool,
+        /// Print the design, separations and limits as JSON.
         #[arg(long)]
         json: bool,
     },
@@ -529,29 +565,37 @@ fn dispatch(command: Cmd) -> Result<()> {
             design,
             seed,
             out,
+            append,
             force,
             json,
-        } => {
-            let spec = simulate::load_model(&model)?;
-            let mut d = simulate::load_design(design.as_deref())?;
-            if let Some(s) = seed {
-                d.seed = s;
-            }
-            let camp = simulate::simulate(&spec, &d, &out, force, json)?;
-            let rows: usize = camp.records.iter().map(|r| r.len()).sum();
-            if json {
-                println!(
-                    "{}",
-                    serde_json::json!({"campaign": out, "records": camp.records.len(), "rows": rows, "seed": d.seed})
-                );
-            } else {
-                println!(
-                    "wrote {} records ({rows} rows) to {}",
-                    camp.records.len(),
-                    out.display()
-                );
-            }
-            Ok(())
-        }
+        } => simulate::simulate_cmd(
+            &model,
+            design.as_deref(),
+            seed,
+            &out,
+            append.as_deref(),
+            force,
+            json,
+        ),
+        Cmd::DesignNext {
+            campaign,
+            models,
+            max_records,
+            target,
+            seed,
+            out,
+            force,
+            json,
+        } => design_next::design_next_cmd(&design_next::DesignArgs {
+            campaign: &campaign,
+            models: &models,
+            max_records,
+            target_sigma: target,
+            seed,
+            out: out.as_deref(),
+            force,
+            json,
+        })
+        .map(|_| ()),
     }
 }

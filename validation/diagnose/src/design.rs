@@ -24,6 +24,7 @@
 //! decides; then every rival is refitted with the record. It stops at the record budget or
 //! when every ordered pair is separated by [`TARGET_SIGMA`] noise standard deviations.
 
+mod evaluate;
 pub mod limits;
 pub mod noise;
 pub mod separation;
@@ -161,7 +162,7 @@ pub struct Designed {
 impl Designed {
     /// Total recording time of the designed records, s.
     pub fn total_time_s(&self) -> f64 {
-        self.records.iter().map(|r| r.duration_s).sum()
+        self.records.iter().fold(0.0, |t, r| t + r.duration_s)
     }
 
     /// The smallest separation of the finished design over the ordered pairs that records can
@@ -181,6 +182,7 @@ impl Designed {
     }
 }
 
+pub use evaluate::evaluate;
 pub use toml_out::to_toml;
 
 /// Designs the records that separate `rivals` (two or three fitted models) on `campaign`.
@@ -214,10 +216,7 @@ pub fn design_next_observed(
         zmp_models::effects::servo::clear_describing_function_cache();
         let obs: Vec<&Observation> = observations.iter().collect();
         check(&obs, rivals, opts)?;
-        let noise = NoiseModel::of(&obs).map_err(|e| DesignError::NoNoise {
-            campaign: opts.campaign_path.clone(),
-            output: ["zmp_x", "zmp_y"][e.output].into(),
-        })?;
+        let noise = noise_model(&obs, opts)?;
         let timing = RecordTiming::of(campaign, &obs);
         let specs: Vec<&ModelSpec> = rivals.iter().map(|r| &r.spec).collect();
         let limits = Limits::of(campaign, &obs, &specs);
@@ -273,6 +272,14 @@ pub fn design_next_observed(
             candidates: admitted.len(),
             limits,
         })
+    })
+}
+
+/// The campaign's noise model, or the error naming the output that has none.
+fn noise_model(obs: &[&Observation], opts: &DesignOptions) -> Result<NoiseModel, DesignError> {
+    NoiseModel::of(obs).map_err(|e| DesignError::NoNoise {
+        campaign: opts.campaign_path.clone(),
+        output: ["zmp_x", "zmp_y"][e.output].into(),
     })
 }
 

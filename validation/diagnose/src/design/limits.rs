@@ -160,7 +160,7 @@ fn read_back(lengths: &[(f64, f64)], rate: f64) -> Option<RecordTiming> {
         .map(|c| (c.0 - 1.0) * c.1)
         .fold(0.0, f64::max);
     // Rounded up to a millisecond: above every bound, below the next period of any record.
-    let min_steady = (min_steady * 1e3).floor() / 1e3 + 1e-3;
+    let min_steady = ((min_steady * 1e3).floor() + 1.0) / 1e3;
     Some(RecordTiming {
         sample_rate_hz: rate,
         transient_s: (t * 1e6).round() / 1e6,
@@ -232,6 +232,10 @@ pub fn sensor_resolution(campaign: &Campaign) -> f64 {
     if !(q.is_finite() && q > 0.0) {
         return 0.0;
     }
+    // The step to 6 significant digits (the differences of large readings carry their
+    // rounding).
+    let e = 10f64.powi(5 - q.log10().floor() as i32);
+    let q = (q * e).round() / e;
     let on_grid = values.iter().all(|v| {
         let k = v / q;
         (k - k.round()).abs() <= 1e-6 * k.abs().max(1.0)
