@@ -411,7 +411,7 @@ fn greedy(
     progress("refitting each rival to the others' predictions");
     let mut pairs = zmp_campaign::par::parallel_map(ordered.len(), threads, |k| {
         let (i, j) = ordered[k];
-        separation::start(i, j, &rivals[j].spec, &campaign[i])
+        separation::start(i, j, &rivals[j].spec, &rivals[i].spec, &campaign[i])
     })
     .into_iter()
     .zip(&ordered)
@@ -461,6 +461,12 @@ fn greedy(
         } else {
             let last = path.len() - 1;
             path[last] = smallest(&pairs).max(0.0).sqrt();
+            progress(&format!(
+                "record {}/{}: smallest separation {:.2} noise standard deviations",
+                chosen.len(),
+                opts.max_records,
+                path[last]
+            ));
         }
         if chosen.len() >= opts.max_records || !(smallest(&pairs) < cap) {
             break;
@@ -492,12 +498,6 @@ fn greedy(
         .map(|(r, p)| r.ok_or_else(|| fit_error(p.truth, p.rival)))
         .collect::<Result<_, _>>()?;
         path.push(smallest(&pairs).max(0.0).sqrt());
-        progress(&format!(
-            "record {}/{}: smallest separation {:.2} noise standard deviations",
-            chosen.len(),
-            opts.max_records,
-            path[path.len() - 1]
-        ));
     }
     // The finished design's separations, the rival also refitted from its own fitted values
     // (a refit stuck where the greedy path took it would overstate the separation).

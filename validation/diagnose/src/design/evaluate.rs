@@ -60,7 +60,8 @@ pub fn evaluate(
                     model: rival.label.clone(),
                     truth: truth.label.clone(),
                 };
-                let pair = start(i, j, &rival.spec, &on_campaign).ok_or_else(failed)?;
+                let pair =
+                    start(i, j, &rival.spec, &truth.spec, &on_campaign).ok_or_else(failed)?;
                 let set = record_set(&on_campaign, &on_records);
                 let full =
                     refit(&pair, &set, on_campaign.len(), Some(&rival.spec)).ok_or_else(failed)?;

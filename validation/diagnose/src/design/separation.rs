@@ -170,12 +170,31 @@ fn converged(spec: &ModelSpec, frees: &[Free], refs: &[&Observation]) -> Option<
     Some(best)
 }
 
+/// `spec` with every parameter it shares with `truth` (same effect, binding and name) at the
+/// truth's value: a start from which a rival that nests the truth has only its own extra
+/// parameters to move (a delay to zero), not a whole fit to travel along with them.
+fn at_truth(spec: &ModelSpec, truth: &ModelSpec) -> ModelSpec {
+    let mut out = spec.clone();
+    for f in refit_frees(spec, &[]) {
+        for b in &f.bindings {
+            if let Some(v) = truth.value(f.kind, *b, f.param) {
+                if (f.bounds.min..=f.bounds.max).contains(&v) {
+                    out.set_value(f.kind, *b, f.param, v);
+                }
+            }
+        }
+    }
+    out
+}
+
 /// A fresh pair: the rival with every parameter the diagnosis fits free, refitted to the
-/// truth's campaign.
+/// truth's campaign from its own values and from the truth's where they share a parameter
+/// ([`at_truth`]); the better fit.
 pub fn start(
     truth: usize,
     rival: usize,
     spec: &ModelSpec,
+    truth_spec: &ModelSpec,
     campaign: &[Observation],
 ) -> Option<Pair> {
     let pair = Pair {
@@ -189,7 +208,7 @@ pub fn start(
         nested: false,
     };
     let set = record_set(campaign, &[]);
-    let fitted = refit(&pair, &set, set.len(), None)?;
+    let fitted = refit(&pair, &set, set.len(), Some(&at_truth(spec, truth_spec)))?;
     Some(Pair {
         campaign: fitted.total,
         ..fitted
