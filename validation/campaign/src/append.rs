@@ -62,17 +62,16 @@ pub fn append_campaign(
             ));
         }
     }
-    let mut next = base
+    let first = base
         .records
         .iter()
         .filter_map(|r| file_number(&r.meta.file))
         .max()
         .map_or(base.records.len(), |n| (n + 1).max(base.records.len()));
     let mut records = base.records.clone();
-    for r in &extra.records {
+    for (k, r) in extra.records.iter().enumerate() {
         let mut r = r.clone();
-        r.meta.file = PathBuf::from(format!("records/r{next:03}.csv"));
-        next += 1;
+        r.meta.file = PathBuf::from(format!("records/r{:03}.csv", first + k));
         records.push(r);
     }
     Ok(Campaign {

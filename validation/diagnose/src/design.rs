@@ -234,7 +234,11 @@ pub fn design_next_observed(
                     .collect())
             })
             .collect::<Result<Vec<Vec<Observation>>, DesignError>>()?;
-        let (pairs, chosen, path) = greedy(rivals, &campaign_truths, &truths, opts, progress)?;
+        let Greedy {
+            pairs,
+            chosen,
+            path,
+        } = greedy(rivals, &campaign_truths, &truths, opts, progress)?;
         let records = chosen
             .iter()
             .map(|&k| {
@@ -390,15 +394,24 @@ fn admitted(
     Ok((keep.iter().map(|&k| grid[k]).collect(), truths))
 }
 
-/// The greedy construction: the pairs at the end, the chosen candidates and the path of the
-/// smallest separation (noise standard deviations).
+/// What the greedy construction ends with.
+struct Greedy {
+    /// Every ordered pair, refitted on the campaign and the chosen records.
+    pairs: Vec<Pair>,
+    /// The chosen candidates, in order.
+    chosen: Vec<usize>,
+    /// The smallest separation (noise standard deviations) before and after each record.
+    path: Vec<f64>,
+}
+
+/// The greedy construction (see the module documentation).
 fn greedy(
     rivals: &[Rival],
     campaign: &[Vec<Observation>],
     truths: &[Vec<Observation>],
     opts: &DesignOptions,
     progress: &(dyn Fn(&str) + Sync),
-) -> Result<(Vec<Pair>, Vec<usize>, Vec<f64>), DesignError> {
+) -> Result<Greedy, DesignError> {
     let n = rivals.len();
     let ordered: Vec<(usize, usize)> = (0..n)
         .flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j)))
@@ -468,7 +481,7 @@ fn greedy(
                 path[last]
             ));
         }
-        if chosen.len() >= opts.max_records || !(smallest(&pairs) < cap) {
+        if chosen.len() >= opts.max_records || smallest(&pairs) >= cap {
             break;
         }
         let active: Vec<Pair> = pairs.iter().filter(|p| !p.nested).cloned().collect();
@@ -522,7 +535,11 @@ fn greedy(
         .map(|(r, p)| r.ok_or_else(|| fit_error(p.truth, p.rival)))
         .collect::<Result<_, _>>()?;
     }
-    Ok((pairs, chosen, path))
+    Ok(Greedy {
+        pairs,
+        chosen,
+        path,
+    })
 }
 
 /// The candidate that maximises the smallest capped separation after it (ties: the larger
