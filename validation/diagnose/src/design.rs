@@ -320,8 +320,9 @@ fn check(obs: &[&Observation], rivals: &[Rival], opts: &DesignOptions) -> Result
     Ok(())
 }
 
-/// A structure in words: the parameters a refit frees, by name.
-fn structure(spec: &ModelSpec) -> String {
+/// A structure's parts: the parameters a refit frees, by name, and the laws its effects
+/// follow.
+fn parts(spec: &ModelSpec) -> Vec<String> {
     let mut names: Vec<String> = crate::engine::refit_frees(spec, &[])
         .iter()
         .map(|f| f.name())
@@ -332,7 +333,19 @@ fn structure(spec: &ModelSpec) -> String {
         }
     }
     names.sort();
-    names.join(", ")
+    names
+}
+
+/// A structure in words.
+fn structure(spec: &ModelSpec) -> String {
+    parts(spec).join(", ")
+}
+
+/// Whether `rival` has every part of `truth`'s structure and more: with its extra effects at
+/// the end where they vanish (a delay of zero, a play of no width) it is the truth.
+fn contains(rival: &ModelSpec, truth: &ModelSpec) -> bool {
+    let (r, t) = (parts(rival), parts(truth));
+    r.len() > t.len() && t.iter().all(|p| r.contains(p))
 }
 
 /// The candidates within every limit under every rival, and each rival's truth observations
@@ -430,6 +443,12 @@ fn greedy(
     .zip(&ordered)
     .map(|(p, &(i, j))| p.ok_or_else(|| fit_error(i, j)))
     .collect::<Result<Vec<Pair>, _>>()?;
+    // A rival whose structure contains the truth's and whose refit reproduces the truth's
+    // campaign within one noise standard deviation nests it: its extra effects vanish at the
+    // truth (the refit's remainder is numerics, or the describing functions' simulation).
+    for p in pairs.iter_mut() {
+        p.nested = contains(&rivals[p.rival].spec, &rivals[p.truth].spec) && p.total < 1.0;
+    }
     let cap = opts.target_sigma * opts.target_sigma;
     let smallest = |pairs: &[Pair]| {
         pairs
