@@ -69,6 +69,11 @@ pub const MEDIANS: &[(&str, &str)] = &[
         "design_next/budget_24_168",
         "design-next, the same with the whole budget of 24 records designed (library)",
     ),
+    (
+        "design_next/play_in_servo_168",
+        "design-next, the play inside the servo (describing functions simulated), 168-record \
+         campaign (library; target <= 30 s)",
+    ),
 ];
 
 /// One peer comparison of the run, as a bench reported it.
