@@ -13,10 +13,10 @@ use zmp_diagnose::measure::{chi2_total, components, predict};
 use zmp_diagnose::observe::Observation;
 use zmp_diagnose::run::{observations_of, observe_campaign};
 use zmp_diagnose::DiagnoseOptions;
+use zmp_files::sections::check_page as doc_section;
 use zmp_identify::{identify_with_progress, IdentifyOptions};
 use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Scenario};
 use zmp_models::{Axis, Binding, EffectKind, ModelSpec};
-use zmp_suites::docs::doc_section;
 
 /// A development draw (seeds 1-300) of a delay beside a play.
 const SEED: u64 = 5;

@@ -11,8 +11,8 @@ use zmp_diagnose::measure::{chi2_total, components, predict};
 use zmp_diagnose::observe::Observation;
 use zmp_diagnose::run::observe_campaign;
 use zmp_diagnose::DiagnoseOptions;
+use zmp_files::sections::check_page as doc_section;
 use zmp_models::{Axis, Binding, EffectInstance, EffectKind, ModelSpec};
-use zmp_suites::docs::doc_section;
 use zmp_virtual_robot::{simulate_campaign, simulate_records_after, ExperimentDesign};
 
 /// The drawn robot's play (total width, both axes), m, and delay (both axes), s.
