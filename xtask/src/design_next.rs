@@ -11,14 +11,30 @@ use zmp_diagnose::design::{design_next, to_toml, DesignOptions, Designed, Rival}
 use zmp_files::{atomic_write, check_output_file};
 
 /// What `cargo xtask design-next` was asked.
-pub struct DesignArgs<'a> {
-    pub campaign: &'a Path,
-    pub models: &'a [PathBuf],
+#[derive(clap::Args, Debug)]
+pub struct DesignArgs {
+    /// Campaign folder (with campaign.toml).
+    pub campaign: PathBuf,
+    /// A rival model file (zmp-model/1); give two or three.
+    #[arg(long = "model", value_name = "M.toml")]
+    pub models: Vec<PathBuf>,
+    /// Most records proposed.
+    #[arg(long, default_value_t = zmp_diagnose::design::MAX_RECORDS)]
     pub max_records: usize,
+    /// Separation (noise standard deviations) at which the design stops.
+    #[arg(long = "target", default_value_t = zmp_diagnose::design::TARGET_SIGMA)]
     pub target_sigma: f64,
+    /// Noise seed written into the design (for the simulators).
+    #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    pub out: Option<&'a Path>,
+    /// Design file to write (default <campaign>-design-next.toml beside the campaign).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Overwrite an existing design file.
+    #[arg(long)]
     pub force: bool,
+    /// Print the design, separations and limits as JSON.
+    #[arg(long)]
     pub json: bool,
 }
 
@@ -32,9 +48,7 @@ fn default_out(campaign: &Path) -> PathBuf {
 }
 
 pub fn design_next_cmd(a: &DesignArgs) -> Result<Designed> {
-    let out = a
-        .out
-        .map_or_else(|| default_out(a.campaign), Path::to_path_buf);
+    let out = a.out.clone().unwrap_or_else(|| default_out(&a.campaign));
     check_output_file(&out, a.force)?;
     let rivals = a
         .models
@@ -46,7 +60,7 @@ pub fn design_next_cmd(a: &DesignArgs) -> Result<Designed> {
             })
         })
         .collect::<Result<Vec<_>>>()?;
-    let camp = read(a.campaign, a.json)?;
+    let camp = read(&a.campaign, a.json)?;
     let opts = DesignOptions {
         campaign_path: a.campaign.display().to_string(),
         max_records: a.max_records,
@@ -78,7 +92,7 @@ pub fn design_next_cmd(a: &DesignArgs) -> Result<Designed> {
             .with_context(|| format!("writing design {}", out.display()))?;
     }
     if a.json {
-        let v = json(&d, a.campaign, written, seconds);
+        let v = json(&d, &a.campaign, written, seconds);
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         print_text(&d, written, seconds);

@@ -198,31 +198,7 @@ enum Cmd {
     /// true, the others refitted to it with every parameter) within the robot's limits; writes
     /// a design file that `simulate --design` and zmp-indep-sim run, prints the predicted
     /// separations (noise standard deviations), recording time and limits (design-next.md).
-    DesignNext {
-        /// Campaign folder (with campaign.toml).
-        campaign: PathBuf,
-        /// A rival model file (zmp-model/1); give two or three.
-        #[arg(long = "model", value_name = "M.toml")]
-        models: Vec<PathBuf>,
-        /// Most records proposed.
-        #[arg(long, default_value_t = zmp_diagnose::design::MAX_RECORDS)]
-        max_records: usize,
-        /// Separation (noise standard deviations) at which the design stops.
-        #[arg(long, default_value_t = zmp_diagnose::design::TARGET_SIGMA)]
-        target: f64,
-        /// Noise seed written into the design (for the simulators).
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Design file to write (default <campaign>-design-next.toml beside the campaign).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Overwrite an existing design file.
-        #[arg(long)]
-        force: bool,
-        /// Print the design, separations and limits as JSON.
-        #[arg(long)]
-        json: bool,
-    },
+    DesignNext(design_next::DesignArgs),
     /// Identify the seed's ZMP model from a stepped-sine campaign (zmp-campaign/1): steady
     /// state, FFT + harmonic regression per record, weighted pendulum + low-pass fit with
     /// standard errors, acceleration saturation, uncertainty weights (first seed, section 5).
@@ -638,25 +614,6 @@ fn dispatch(command: Cmd) -> Result<()> {
             force,
             json,
         ),
-        Cmd::DesignNext {
-            campaign,
-            models,
-            max_records,
-            target,
-            seed,
-            out,
-            force,
-            json,
-        } => design_next::design_next_cmd(&design_next::DesignArgs {
-            campaign: &campaign,
-            models: &models,
-            max_records,
-            target_sigma: target,
-            seed,
-            out: out.as_deref(),
-            force,
-            json,
-        })
-        .map(|_| ()),
+        Cmd::DesignNext(args) => design_next::design_next_cmd(&args).map(|_| ()),
     }
 }
