@@ -154,6 +154,16 @@ fn designed_records_decide_a_delay_beside_a_play_on_the_independent_simulator() 
         play2.cost,
         both2.cost
     );
+    // And by about what the design predicted: the predicted chi-square difference (the
+    // separation squared) against the measured gain, within a factor of 2. The measured gain
+    // scatters by about 2 sqrt(T) around T with the records' noise (10 on 26), and the
+    // prediction is local, at the delay fitted on the campaign alone.
+    let predicted = pair.total_sigma.powi(2);
+    let ratio = gain_after / predicted;
+    assert!(
+        (0.5..2.0).contains(&ratio),
+        "measured {gain_after}, predicted {predicted}"
+    );
     let delay = |s: &ModelSpec| {
         Axis::BOTH
             .iter()
@@ -189,7 +199,8 @@ fn designed_records_decide_a_delay_beside_a_play_on_the_independent_simulator() 
          standard deviations ({:.0} s of recording). Run on the same robot (the simulator \
          reading the design file), appended, both structures refitted: chi-square {:.0} with \
          the play alone, {:.0} with the delay ({} ms); the delay's gain over the mismatch \
-         factor {:.2} is {:.1}: the truth wins.\n",
+         factor {:.2} is {:.1}: the truth wins, {:.2} times the chi-square difference the \
+         design predicted ({:.1}).\n",
         drawn_delay * 1e3,
         robot.axes[0]
             .transmission
@@ -210,7 +221,9 @@ fn designed_records_decide_a_delay_beside_a_play_on_the_independent_simulator() 
         both2.cost,
         delay(&both2.spec),
         mismatch2,
-        gain_after
+        gain_after,
+        ratio,
+        predicted
     );
     eprintln!("{section}");
     doc_section("docs/src/design-next.md", "design-next:indep", &section);
