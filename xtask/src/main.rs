@@ -5,6 +5,7 @@ mod calibrate;
 mod ci;
 mod demo;
 mod demo_com;
+mod design_next;
 mod diagnose;
 mod env;
 mod fmu;
@@ -166,7 +167,9 @@ enum Cmd {
     /// 14 frequencies (0.5-15 rad/s) x 2 excited channels at 200 Hz, 0.5 mm ZMP noise,
     /// 0.1 mm quantisation. A design file is TOML with the fields of that design
     /// (operating_points, amplitudes, omegas, excited, sample_rate_hz, transient_s, periods,
-    /// min_steady_s, zmp_noise_std, quantisation, seed, internal_step, record_com).
+    /// min_steady_s, zmp_noise_std, quantisation, seed, internal_step, record_com), or lists
+    /// its records instead of the grid ([[records]] with excited, omega, amplitude,
+    /// operating_point: what design-next writes). docs/src/spec/design-format.md.
     Simulate {
         /// Model file (zmp-model/1).
         #[arg(long, default_value = "models/params/silo2-paper.toml")]
@@ -180,6 +183,10 @@ enum Cmd {
         /// Campaign folder to write.
         #[arg(long)]
         out: PathBuf,
+        /// Write this campaign with the design's records after its own (their noise drawn
+        /// after its records'): the campaign a designed experiment extends.
+        #[arg(long, value_name = "CAMPAIGN")]
+        append: Option<PathBuf>,
         /// Replace an existing campaign folder.
         #[arg(long)]
         force: bool,
@@ -187,6 +194,11 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// Design the records that separate two or three rival models (T-optimal: each taken as
+    /// true, the others refitted to it with every parameter) within the robot's limits; writes
+    /// a design file that `simulate --design` and zmp-indep-sim run, prints the predicted
+    /// separations (noise standard deviations), recording time and limits (design-next.md).
+    DesignNext(design_next::DesignArgs),
     /// Identify the seed's ZMP model from a stepped-sine campaign (zmp-campaign/1): steady
     /// state, FFT + harmonic regression per record, weighted pendulum + low-pass fit with
     /// standard errors, acceleration saturation, uncertainty weights (first seed, section 5).
@@ -590,29 +602,18 @@ fn dispatch(command: Cmd) -> Result<()> {
             design,
             seed,
             out,
+            append,
             force,
             json,
-        } => {
-            let spec = simulate::load_model(&model)?;
-            let mut d = simulate::load_design(design.as_deref())?;
-            if let Some(s) = seed {
-                d.seed = s;
-            }
-            let camp = simulate::simulate(&spec, &d, &out, force, json)?;
-            let rows: usize = camp.records.iter().map(|r| r.len()).sum();
-            if json {
-                println!(
-                    "{}",
-                    serde_json::json!({"campaign": out, "records": camp.records.len(), "rows": rows, "seed": d.seed})
-                );
-            } else {
-                println!(
-                    "wrote {} records ({rows} rows) to {}",
-                    camp.records.len(),
-                    out.display()
-                );
-            }
-            Ok(())
-        }
+        } => simulate::simulate_cmd(
+            &model,
+            design.as_deref(),
+            seed,
+            &out,
+            append.as_deref(),
+            force,
+            json,
+        ),
+        Cmd::DesignNext(args) => design_next::design_next_cmd(&args).map(|_| ()),
     }
 }

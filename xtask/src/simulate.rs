@@ -3,9 +3,9 @@
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::Path;
-use zmp_campaign::{check_destination, write_campaign, Campaign};
+use zmp_campaign::{append_campaign, check_destination, write_campaign, Campaign};
 use zmp_models::ModelSpec;
-use zmp_virtual_robot::{simulate_campaign_with_progress, ExperimentDesign};
+use zmp_virtual_robot::{simulate_records_after, ExperimentDesign};
 
 pub fn load_model(path: &Path) -> Result<ModelSpec> {
     let text = std::fs::read_to_string(path)
@@ -38,11 +38,74 @@ pub fn progress_bar(len: u64, what: &str, quiet: bool) -> ProgressBar {
     pb
 }
 
+/// `cargo xtask simulate`: the design (or the reference) on the model, written to `out`, or
+/// with `append` that campaign with the design's records after its own.
+pub fn simulate_cmd(
+    model: &Path,
+    design: Option<&Path>,
+    seed: Option<u64>,
+    out: &Path,
+    append: Option<&Path>,
+    force: bool,
+    json: bool,
+) -> Result<()> {
+    let spec = load_model(model)?;
+    let mut d = load_design(design)?;
+    if let Some(s) = seed {
+        d.seed = s;
+    }
+    let base = append
+        .map(|dir| crate::diagnose::read(dir, json).map(|c| (dir, c)))
+        .transpose()?;
+    let camp = simulate_into(
+        &spec,
+        &d,
+        out,
+        base.as_ref().map(|(p, c)| (*p, c)),
+        force,
+        json,
+    )?;
+    let rows: usize = camp.records.iter().map(|r| r.len()).sum();
+    let added = d.records().len();
+    if json {
+        println!(
+            "{}",
+            serde_json::json!({"campaign": out, "records": camp.records.len(), "simulated": added, "rows": rows, "seed": d.seed, "appended_to": append})
+        );
+    } else {
+        println!(
+            "wrote {} records ({rows} rows{}) to {}",
+            camp.records.len(),
+            append.map_or(String::new(), |a| format!(
+                "; {added} simulated after the {} of {}",
+                camp.records.len() - added,
+                a.display()
+            )),
+            out.display()
+        );
+    }
+    Ok(())
+}
+
 /// Simulates `design` on `spec` and writes the campaign to `out`.
 pub fn simulate(
     spec: &ModelSpec,
     design: &ExperimentDesign,
     out: &Path,
+    force: bool,
+    quiet: bool,
+) -> Result<Campaign> {
+    simulate_into(spec, design, out, None, force, quiet)
+}
+
+/// [`simulate`]; with `base` (its folder and campaign), that campaign with the design's
+/// records after its own, their noise drawn after its records' (the design's seed, record
+/// numbers continuing).
+pub fn simulate_into(
+    spec: &ModelSpec,
+    design: &ExperimentDesign,
+    out: &Path,
+    base: Option<(&Path, &Campaign)>,
     force: bool,
     quiet: bool,
 ) -> Result<Campaign> {
@@ -53,8 +116,13 @@ pub fn simulate(
         .map_err(|e| anyhow::anyhow!("experiment design: {e}"))?;
     let n = design.records().len() as u64;
     let pb = progress_bar(n, "simulating", quiet);
-    let camp = simulate_campaign_with_progress(spec, design, &|d| pb.set_position(d as u64))?;
+    let first = base.map_or(0, |(_, c)| c.records.len());
+    let camp = simulate_records_after(spec, design, first, &|d| pb.set_position(d as u64))?;
     pb.finish_and_clear();
+    let camp = match base {
+        Some((dir, b)) => append_campaign(b, dir, &camp, out)?,
+        None => camp,
+    };
     write_campaign(out, &camp, force)
         .with_context(|| format!("writing campaign {}", out.display()))?;
     Ok(camp)

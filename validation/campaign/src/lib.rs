@@ -11,11 +11,13 @@
 pub mod ledger;
 pub mod par;
 
+mod append;
 mod data;
 mod error;
 mod manifest;
 mod write;
 
+pub use append::append_campaign;
 pub use data::{parse_record, REQUIRED_COLUMNS, STEP_TOLERANCE};
 pub use error::{CampaignError, Part};
 pub use manifest::parse_manifest;

@@ -7,6 +7,7 @@
 pub mod augment;
 pub mod candidates;
 pub mod cells;
+pub mod design;
 pub mod engine;
 pub mod evidence;
 pub mod iterate;

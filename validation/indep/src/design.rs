@@ -1,7 +1,10 @@
 //! The experiment design: which stepped-sine records a campaign holds and how they are sampled.
 //!
-//! Records are ordered operating point, then excited axis, then amplitude, then frequency (the
-//! index `k` of `records()` is the file `records/r{k:03}.csv`). Every record starts when its
+//! Two forms: the grid (`operating_points`, `amplitudes`, `omegas`, `excited`: every
+//! combination, ordered operating point, then excited axis, then amplitude, then frequency) or
+//! the list (`[[records]]`, each with `excited`, `omega`, `amplitude`, `operating_point`, in
+//! file order: what the project's `design-next` writes); the index `k` of `records()` is the
+//! file `records/r{k:03}.csv`. Every record starts when its
 //! excitation starts (`t = 0`, robot at rest at the operating point) and lasts `transient_s`
 //! plus a whole number of periods: `max(ceil(periods), ceil(min_steady_s / T))`, at least one.
 
@@ -41,14 +44,21 @@ pub struct Design {
     /// Campaign name written to `campaign.toml`.
     #[serde(default = "default_name")]
     pub name: String,
-    /// Operating points `[x, y]` of the CoM references, m.
+    /// Operating points `[x, y]` of the CoM references, m (grid form).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub operating_points: Vec<[f64; 2]>,
-    /// Sine amplitudes of the excited reference, m.
+    /// Sine amplitudes of the excited reference, m (grid form).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub amplitudes: Vec<f64>,
-    /// Excitation frequencies, rad/s.
+    /// Excitation frequencies, rad/s (grid form).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub omegas: Vec<f64>,
-    /// The excited reference axes.
+    /// The excited reference axes (grid form).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub excited: Vec<AxisName>,
+    /// The records one by one, in file order (list form).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub records: Vec<ListedRecord>,
     /// Sample rate of the written records, Hz.
     pub sample_rate_hz: f64,
     /// Recorded time before the steady state is expected, s.
@@ -91,6 +101,20 @@ fn default_name() -> String {
 }
 fn default_internal_rate() -> f64 {
     1000.0
+}
+
+/// One record of a design in the list form.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ListedRecord {
+    /// The reference that carries the sine.
+    pub excited: AxisName,
+    /// Excitation frequency, rad/s.
+    pub omega: f64,
+    /// Sine amplitude, m.
+    pub amplitude: f64,
+    /// Operating point `[x, y]`, m.
+    pub operating_point: [f64; 2],
 }
 
 /// The product `λ h` of the robot's fastest rate estimate and the integrator step that the step
@@ -149,6 +173,7 @@ impl Default for Design {
             amplitudes: vec![0.003, 0.008],
             omegas,
             excited: vec![AxisName::X, AxisName::Y],
+            records: Vec::new(),
             sample_rate_hz: 200.0,
             transient_s: 3.0,
             periods: 3.0,
@@ -174,22 +199,42 @@ impl Design {
                 Err(format!("{w} must be positive and finite, got {v}"))
             }
         };
-        if self.operating_points.is_empty() {
-            return Err("operating_points must not be empty".into());
+        let grid = !(self.operating_points.is_empty()
+            && self.amplitudes.is_empty()
+            && self.omegas.is_empty()
+            && self.excited.is_empty());
+        if grid && !self.records.is_empty() {
+            return Err(
+                "records: give either the grid (operating_points, amplitudes, omegas, \
+                        excited) or the list ([[records]]), not both"
+                    .into(),
+            );
         }
-        for (k, op) in self.operating_points.iter().enumerate() {
-            if !(op[0].is_finite() && op[1].is_finite()) {
-                return Err(format!("operating_points[{k}] must be finite"));
+        if self.records.is_empty() {
+            if self.operating_points.is_empty() {
+                return Err("operating_points must not be empty".into());
+            }
+            for (k, op) in self.operating_points.iter().enumerate() {
+                if !(op[0].is_finite() && op[1].is_finite()) {
+                    return Err(format!("operating_points[{k}] must be finite"));
+                }
+            }
+            if self.amplitudes.is_empty() || self.omegas.is_empty() || self.excited.is_empty() {
+                return Err("amplitudes, omegas and excited must not be empty".into());
+            }
+            for (k, a) in self.amplitudes.iter().enumerate() {
+                pos(*a, &format!("amplitudes[{k}]"))?;
+            }
+            for (k, w) in self.omegas.iter().enumerate() {
+                pos(*w, &format!("omegas[{k}]"))?;
             }
         }
-        if self.amplitudes.is_empty() || self.omegas.is_empty() || self.excited.is_empty() {
-            return Err("amplitudes, omegas and excited must not be empty".into());
-        }
-        for (k, a) in self.amplitudes.iter().enumerate() {
-            pos(*a, &format!("amplitudes[{k}]"))?;
-        }
-        for (k, w) in self.omegas.iter().enumerate() {
-            pos(*w, &format!("omegas[{k}]"))?;
+        for (k, r) in self.records.iter().enumerate() {
+            pos(r.omega, &format!("records[{k}].omega"))?;
+            pos(r.amplitude, &format!("records[{k}].amplitude"))?;
+            if !(r.operating_point[0].is_finite() && r.operating_point[1].is_finite()) {
+                return Err(format!("records[{k}].operating_point must be finite"));
+            }
         }
         pos(self.sample_rate_hz, "sample_rate_hz")?;
         pos(self.min_internal_rate_hz, "min_internal_rate_hz")?;
@@ -270,29 +315,55 @@ impl Design {
         ((rate / self.sample_rate_hz) - 1e-9).ceil().max(1.0) as usize
     }
 
+    /// Whether the design lists its records (`[[records]]`) rather than giving a grid.
+    pub fn is_list(&self) -> bool {
+        !self.records.is_empty()
+    }
+
+    /// The design a robot is drawn for: this one, or for a list (records proposed for a robot
+    /// already drawn, not a campaign to size its effects on) the default grid, so that a list
+    /// runs on the robot the same seed and scenario draw for the default campaign.
+    pub fn for_drawing(&self) -> Design {
+        if self.is_list() {
+            Design::default()
+        } else {
+            self.clone()
+        }
+    }
+
     /// The records, in file order.
     pub fn records(&self) -> Vec<RecordSpec> {
         let mut out = Vec::new();
+        let push = |out: &mut Vec<RecordSpec>,
+                    axis: AxisName,
+                    omega: f64,
+                    amplitude: f64,
+                    op: [f64; 2]| {
+            let period = 2.0 * PI / omega;
+            let by_periods = (self.periods - 1e-9).ceil();
+            let by_time = (self.min_steady_s / period - 1e-9).ceil();
+            let steady_periods = by_periods.max(by_time).max(1.0) as usize;
+            let duration = self.transient_s + steady_periods as f64 * period;
+            let n_samples = (duration * self.sample_rate_hz + 1e-9).ceil() as usize + 1;
+            out.push(RecordSpec {
+                index: out.len(),
+                excited: axis,
+                omega,
+                amplitude,
+                operating_point: op,
+                n_samples,
+                steady_start_s: self.transient_s,
+                steady_periods,
+            });
+        };
+        for r in &self.records {
+            push(&mut out, r.excited, r.omega, r.amplitude, r.operating_point);
+        }
         for op in &self.operating_points {
             for &axis in &self.excited {
                 for &amplitude in &self.amplitudes {
                     for &omega in &self.omegas {
-                        let period = 2.0 * PI / omega;
-                        let by_periods = (self.periods - 1e-9).ceil();
-                        let by_time = (self.min_steady_s / period - 1e-9).ceil();
-                        let steady_periods = by_periods.max(by_time).max(1.0) as usize;
-                        let duration = self.transient_s + steady_periods as f64 * period;
-                        let n_samples = (duration * self.sample_rate_hz + 1e-9).ceil() as usize + 1;
-                        out.push(RecordSpec {
-                            index: out.len(),
-                            excited: axis,
-                            omega,
-                            amplitude,
-                            operating_point: *op,
-                            n_samples,
-                            steady_start_s: self.transient_s,
-                            steady_periods,
-                        });
+                        push(&mut out, axis, omega, amplitude, *op);
                     }
                 }
             }

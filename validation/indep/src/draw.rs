@@ -82,7 +82,8 @@ pub fn draw_for_design(seed: u64, scenario: &Scenario, design: &Design) -> Robot
     draw_with(seed, scenario, design, &DrawOptions::default())
 }
 
-/// [`draw_for_design`] with options (every other parameter is drawn as without them).
+/// [`draw_for_design`] with options (every other parameter is drawn as without them). A
+/// design in the list form draws the robot of the default design ([`Design::for_drawing`]).
 ///
 /// # Panics
 /// If the scenario or the design is invalid (`Scenario::validate`, `Design::validate`).
@@ -93,6 +94,8 @@ pub fn draw_with(seed: u64, scenario: &Scenario, design: &Design, options: &Draw
     design
         .validate()
         .unwrap_or_else(|e| panic!("draw: design: {e}"));
+    // A list of records is run on the robot drawn for the default campaign.
+    let design = &design.for_drawing();
     let scenario = scenario.resolve(&mut stream(seed, 1));
     let mut rng = stream(seed, 0);
     let base = draw_base(&mut rng, design);

@@ -13,7 +13,7 @@ pub mod robot;
 pub mod scenario;
 pub mod write;
 
-pub use design::{AxisName, Design, RecordSpec};
+pub use design::{AxisName, Design, ListedRecord, RecordSpec};
 pub use draw::{draw, draw_for_design, draw_with, CouplingForm, DrawOptions, Visibility};
 pub use integrate::{simulate, simulate_records, try_simulate, RecordData, RecordTruth};
 pub use robot::{

@@ -48,9 +48,17 @@ struct Cli {
     /// and optionally quantisation (m), seed, name, min_internal_rate_hz, a [noise] table
     /// (white_std, coloured_std m, coloured_tau s) or zmp_noise_std (m, white only) to
     /// override the robot's sensor noise. Default: 3 operating points x 2 axes x 2 amplitudes
-    /// x 9 frequencies = 108 records at 200 Hz.
+    /// x 9 frequencies = 108 records at 200 Hz. Instead of the grid, a design may list its
+    /// records ([[records]] with excited, omega, amplitude, operating_point = [x, y]): the
+    /// list runs on the robot --seed and --scenario draw for the default design (or on
+    /// --robot); give it a seed other than the campaign's so that its noise is its own.
     #[arg(long)]
     design: Option<PathBuf>,
+
+    /// Run the design on this robot (a --truth file written earlier) instead of drawing one
+    /// (--scenario is then not used).
+    #[arg(long, value_name = "TRUTH.json")]
+    robot: Option<PathBuf>,
 
     /// Form of a drawn cross_coupling effect: `pendulum` (extra off-diagonal a - b s² terms)
     /// or `inertial` (each joint loaded by the other axis's CoM acceleration). Default: drawn.
@@ -111,7 +119,16 @@ fn run(cli: Cli) -> Result<()> {
     let options = DrawOptions {
         coupling_form: cli.coupling_form,
     };
-    let robot = draw_with(cli.seed, &scenario, &design, &options);
+    let robot = match &cli.robot {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("{}: cannot read", path.display()))?;
+            zmp_indep_sim::Robot::from_json(&text).map_err(|e| {
+                anyhow::anyhow!("{}: not a truth file of zmp-indep-sim: {e}", path.display())
+            })?
+        }
+        None => draw_with(cli.seed, &scenario, &design, &options),
+    };
     let started = std::time::Instant::now();
     write::write_campaign(&robot, &design, &cli.out, cli.force)?;
     let seconds = started.elapsed().as_secs_f64();

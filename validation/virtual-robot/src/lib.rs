@@ -6,273 +6,15 @@
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use serde::{Deserialize, Serialize};
-use std::path::PathBuf;
 use zmp_campaign::{Campaign, Record, RecordMeta};
-use zmp_models::{Axis, ModelSpec, Plant};
+use zmp_models::{ModelSpec, Plant};
 
-/// What to run: every operating point × amplitude × frequency × excited channel.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ExperimentDesign {
-    /// Campaign name written to `campaign.toml`.
-    #[serde(default = "default_name")]
-    pub name: String,
-    /// Constant CoM references `[x, y]` the sines oscillate around, m.
-    pub operating_points: Vec<[f64; 2]>,
-    /// Sine amplitudes of the excited reference, m.
-    pub amplitudes: Vec<f64>,
-    /// Excitation frequencies, rad/s.
-    pub omegas: Vec<f64>,
-    /// Excited reference channels.
-    pub excited: Vec<Axis>,
-    /// Data sample rate, Hz.
-    pub sample_rate_hz: f64,
-    /// Seconds recorded from the start of the excitation before the steady state is expected.
-    pub transient_s: f64,
-    /// Whole periods recorded after the transient.
-    pub periods: u32,
-    /// Least steady-state length, s (high frequencies get more periods).
-    pub min_steady_s: f64,
-    /// Standard deviation of the white ZMP sensor noise, m.
-    pub zmp_noise_std: f64,
-    /// ZMP sensor resolution, m (0: none).
-    pub quantisation: f64,
-    /// Noise seed.
-    pub seed: u64,
-    /// Internal step of the plant, s.
-    #[serde(default = "default_step")]
-    pub internal_step: f64,
-    /// Also write the true CoM as extra columns `x_c`, `y_c`.
-    #[serde(default)]
-    pub record_com: bool,
-}
+mod design;
 
-fn default_name() -> String {
-    "virtual".into()
-}
-
-fn default_step() -> f64 {
-    zmp_models::DEFAULT_STEP
-}
-
-impl ExperimentDesign {
-    /// The reference campaign: 3 operating points × 2 amplitudes (3 and 8 mm) × 14 frequencies
-    /// from 0.5 to 15 rad/s × 2 excited channels at 200 Hz, 0.5 mm ZMP noise, 0.1 mm resolution.
-    pub fn reference() -> ExperimentDesign {
-        ExperimentDesign {
-            name: "virtual-silo2".into(),
-            operating_points: vec![[0.0, 0.0], [0.02, 0.0], [0.0, 0.02]],
-            amplitudes: vec![0.003, 0.008],
-            omegas: zmp_models::logspace(0.5, 15.0, 14),
-            excited: vec![Axis::X, Axis::Y],
-            sample_rate_hz: 200.0,
-            transient_s: 3.0,
-            periods: 4,
-            min_steady_s: 8.0,
-            zmp_noise_std: 0.0005,
-            quantisation: 0.0001,
-            seed: 1,
-            internal_step: zmp_models::DEFAULT_STEP,
-            record_com: false,
-        }
-    }
-
-    /// Record metadata in campaign order: operating point, amplitude, excited channel, frequency.
-    pub fn records(&self) -> Vec<RecordMeta> {
-        let mut out = Vec::new();
-        for op in &self.operating_points {
-            for &amplitude in &self.amplitudes {
-                for &excited in &self.excited {
-                    for &omega in &self.omegas {
-                        let k = out.len();
-                        out.push(RecordMeta {
-                            file: PathBuf::from(format!("records/r{k:03}.csv")),
-                            excited,
-                            omega,
-                            amplitude,
-                            operating_point: *op,
-                        });
-                    }
-                }
-            }
-        }
-        out
-    }
-
-    /// Reads a design file's text (TOML); every error names `file` and the field.
-    pub fn from_toml(text: &str, file: &str) -> Result<ExperimentDesign, String> {
-        let d: ExperimentDesign = toml::from_str(text).map_err(|e| {
-            // The parser's message names the key (or quotes its line) and where it is.
-            format!("{file}: {}", e.to_string().trim_end())
-        })?;
-        d.check().map_err(|e| format!("{file}: {e}"))?;
-        Ok(d)
-    }
-
-    /// Rows of a record at `omega`: transient plus whole steady periods, sampled.
-    fn rows_at(&self, omega: f64) -> f64 {
-        let period = 2.0 * std::f64::consts::PI / omega;
-        let steady = (self.periods as f64 * period).max(self.min_steady_s);
-        let steady = (steady / period).ceil() * period;
-        ((self.transient_s + steady) * self.sample_rate_hz).round() + 1.0
-    }
-
-    /// Checks the design makes sense: every number finite and in its range, every list
-    /// non-empty and bounded, and the campaign no larger than [`MAX_RECORD_ROWS`] rows per
-    /// record, [`MAX_CAMPAIGN_ROWS`] in all and [`MAX_INTERNAL_STEPS`] plant steps. The message
-    /// starts with the field.
-    pub fn check(&self) -> Result<(), String> {
-        let range = |name: &str, v: f64, lo: f64, hi: f64, lo_open: bool| {
-            let above = if lo_open { v > lo } else { v >= lo };
-            if v.is_finite() && above && v <= hi {
-                Ok(())
-            } else {
-                let open = if lo_open { "(" } else { "[" };
-                Err(format!(
-                    "{name} = {v}: must be a finite number in {open}{lo}, {hi}]"
-                ))
-            }
-        };
-        let list = |name: &str, n: usize| {
-            if n == 0 {
-                Err(format!("{name} is empty"))
-            } else if n > MAX_LIST {
-                Err(format!("{name} has {n} entries; at most {MAX_LIST}"))
-            } else {
-                Ok(())
-            }
-        };
-        if self.name.len() > 1000 {
-            return Err(format!(
-                "name is {} bytes long; at most 1000",
-                self.name.len()
-            ));
-        }
-        range(
-            "sample_rate_hz",
-            self.sample_rate_hz,
-            0.0,
-            MAX_SAMPLE_RATE_HZ,
-            true,
-        )?;
-        range("internal_step", self.internal_step, 0.0, 0.1, true)?;
-        range("transient_s", self.transient_s, 0.0, MAX_DURATION_S, false)?;
-        range(
-            "min_steady_s",
-            self.min_steady_s,
-            0.0,
-            MAX_DURATION_S,
-            false,
-        )?;
-        range("zmp_noise_std", self.zmp_noise_std, 0.0, 1.0, false)?;
-        range("quantisation", self.quantisation, 0.0, 1.0, false)?;
-        if self.periods == 0 || self.periods > MAX_PERIODS {
-            return Err(format!(
-                "periods = {}: must be a whole number from 1 to {MAX_PERIODS}",
-                self.periods
-            ));
-        }
-        list("operating_points", self.operating_points.len())?;
-        for (k, op) in self.operating_points.iter().enumerate() {
-            for (axis, v) in ["x", "y"].iter().zip(op) {
-                if !(v.is_finite() && v.abs() <= 10.0) {
-                    return Err(format!(
-                        "operating_points[{k}].{axis} = {v}: must be a finite number in \
-                         [-10, 10] m"
-                    ));
-                }
-            }
-        }
-        list("amplitudes", self.amplitudes.len())?;
-        for (k, a) in self.amplitudes.iter().enumerate() {
-            range(&format!("amplitudes[{k}]"), *a, 0.0, 1.0, true)?;
-        }
-        list("omegas", self.omegas.len())?;
-        let nyquist = std::f64::consts::PI * self.sample_rate_hz;
-        for (k, w) in self.omegas.iter().enumerate() {
-            range(&format!("omegas[{k}]"), *w, 0.0, nyquist, true).map_err(|_| {
-                format!(
-                    "omegas[{k}] = {w}: must be a positive number below the Nyquist frequency \
-                     {nyquist} rad/s"
-                )
-            })?;
-            if *w >= nyquist {
-                return Err(format!(
-                    "omegas[{k}] = {w} rad/s is at or above the Nyquist frequency {nyquist} rad/s"
-                ));
-            }
-        }
-        list("excited", self.excited.len())?;
-        if self.excited.len() > 2 || (self.excited.len() == 2 && self.excited[0] == self.excited[1])
-        {
-            return Err("excited must name each of \"x\", \"y\" at most once".into());
-        }
-        let dt = 1.0 / self.sample_rate_hz;
-        let ratio = dt / self.internal_step;
-        if (ratio - ratio.round()).abs() > 1e-9 * ratio.max(1.0) || ratio.round() < 1.0 {
-            return Err(format!(
-                "sample_rate_hz: the sample period {dt} s must be a whole number of internal \
-                 steps (internal_step = {} s)",
-                self.internal_step
-            ));
-        }
-        // Sizes: a record's rows, the campaign's rows and the plant steps, before anything is
-        // allocated.
-        let per_set =
-            (self.operating_points.len() * self.amplitudes.len() * self.excited.len()) as f64;
-        let records = per_set * self.omegas.len() as f64;
-        if records > MAX_RECORDS as f64 {
-            return Err(format!(
-                "operating_points, amplitudes, excited, omegas: {records} records; at most \
-                 {MAX_RECORDS}"
-            ));
-        }
-        let mut total_rows = 0.0;
-        for (k, w) in self.omegas.iter().enumerate() {
-            let rows = self.rows_at(*w);
-            if rows > MAX_RECORD_ROWS as f64 {
-                return Err(format!(
-                    "transient_s, min_steady_s, periods: a record at omegas[{k}] = {w} rad/s \
-                     would have {rows:.3e} rows; at most {MAX_RECORD_ROWS:.0e}"
-                ));
-            }
-            total_rows += rows * per_set;
-        }
-        if total_rows > MAX_CAMPAIGN_ROWS as f64 {
-            return Err(format!(
-                "operating_points, amplitudes, excited, omegas: the campaign would have \
-                 {total_rows:.3e} rows; at most {MAX_CAMPAIGN_ROWS:.0e}"
-            ));
-        }
-        let steps = total_rows * ratio.round();
-        if steps > MAX_INTERNAL_STEPS as f64 {
-            return Err(format!(
-                "internal_step = {} s: the campaign would take {steps:.3e} plant steps; at most \
-                 {MAX_INTERNAL_STEPS:.0e}",
-                self.internal_step
-            ));
-        }
-        Ok(())
-    }
-}
-
-/// Longest list in a design (operating points, amplitudes, frequencies).
-pub const MAX_LIST: usize = 1000;
-/// Highest sample rate, Hz.
-pub const MAX_SAMPLE_RATE_HZ: f64 = 1e6;
-/// Longest transient or steady-state length, s.
-pub const MAX_DURATION_S: f64 = 1e5;
-/// Most steady-state periods.
-pub const MAX_PERIODS: u32 = 1_000_000;
-/// Most records in one campaign.
-pub const MAX_RECORDS: usize = 100_000;
-/// Most rows in one record.
-pub const MAX_RECORD_ROWS: usize = 10_000_000;
-/// Most rows in one campaign (about 2 GB in memory).
-pub const MAX_CAMPAIGN_ROWS: usize = 50_000_000;
-/// Most internal plant steps in one campaign.
-pub const MAX_INTERNAL_STEPS: u64 = 10_000_000_000;
+pub use design::{
+    ExperimentDesign, ListedRecord, MAX_CAMPAIGN_ROWS, MAX_DURATION_S, MAX_INTERNAL_STEPS,
+    MAX_LIST, MAX_PERIODS, MAX_RECORDS, MAX_RECORD_ROWS, MAX_SAMPLE_RATE_HZ,
+};
 
 /// Rounds to the sensor resolution `q`, keeping decimal-friendly values (k / (1/q)).
 fn quantise(v: f64, q: f64) -> f64 {
@@ -377,6 +119,19 @@ pub fn simulate_campaign_with_progress(
     design: &ExperimentDesign,
     progress: &(dyn Fn(usize) + Sync),
 ) -> anyhow::Result<Campaign> {
+    simulate_records_after(spec, design, 0, progress)
+}
+
+/// As [`simulate_campaign_with_progress`], the design's records numbered from `first` for
+/// their noise: record `k` draws from `(seed, first + k)`. Records to append to a campaign of
+/// `first` records simulated with the same seed (`cargo xtask simulate --append`) carry noise
+/// of their own, as if the campaign had been longer.
+pub fn simulate_records_after(
+    spec: &ModelSpec,
+    design: &ExperimentDesign,
+    first: usize,
+    progress: &(dyn Fn(usize) + Sync),
+) -> anyhow::Result<Campaign> {
     design
         .check()
         .map_err(|e| anyhow::anyhow!("experiment design: {e}"))?;
@@ -399,7 +154,7 @@ pub fn simulate_campaign_with_progress(
                         if k >= metas.len() {
                             break;
                         }
-                        let rec = simulate_record(spec, design, k, metas[k].clone())
+                        let rec = simulate_record(spec, design, first + k, metas[k].clone())
                             .expect("model checked above");
                         mine.push((k, rec));
                         let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
@@ -435,6 +190,7 @@ pub fn simulate_campaign_with_progress(
 mod tests {
     use super::*;
     use zmp_models::harmonic::first_harmonic;
+    use zmp_models::Axis;
 
     fn paper() -> ModelSpec {
         ModelSpec::parse(
@@ -549,6 +305,81 @@ mod tests {
             ..small_design()
         };
         assert!(d.check().unwrap_err().contains("amplitudes"));
+    }
+
+    /// The list form runs its records in its order, each as the grid form runs the same
+    /// record (same noise stream: same samples); numbered from `first`, a record draws the
+    /// noise of that place in a longer campaign.
+    #[test]
+    fn a_listed_design_runs_its_records_as_the_grid_does() {
+        let spec = paper();
+        let grid = small_design();
+        let metas = grid.records();
+        let listed = ExperimentDesign {
+            operating_points: Vec::new(),
+            amplitudes: Vec::new(),
+            omegas: Vec::new(),
+            excited: Vec::new(),
+            records: metas
+                .iter()
+                .map(|m| ListedRecord {
+                    excited: m.excited,
+                    omega: m.omega,
+                    amplitude: m.amplitude,
+                    operating_point: m.operating_point,
+                })
+                .collect(),
+            ..grid.clone()
+        };
+        assert_eq!(listed.records(), metas);
+        let a = simulate_campaign(&spec, &grid).unwrap();
+        let b = simulate_campaign(&spec, &listed).unwrap();
+        assert!(a == b);
+        let n = metas.len();
+        let later = simulate_records_after(&spec, &listed, n, &|_| {}).unwrap();
+        assert!(later.records[0].zmp_x != a.records[0].zmp_x);
+        let longer = ExperimentDesign {
+            records: [listed.records.clone(), listed.records.clone()].concat(),
+            ..listed.clone()
+        };
+        let both = simulate_campaign(&spec, &longer).unwrap();
+        assert!(later.records[0].zmp_x == both.records[n].zmp_x);
+    }
+
+    #[test]
+    fn a_listed_design_is_read_and_its_errors_name_the_field() {
+        let head = "sample_rate_hz = 200.0\ntransient_s = 3.0\nperiods = 4\n\
+                    min_steady_s = 8.0\nzmp_noise_std = 0.0005\nquantisation = 0.0001\nseed = 1\n";
+        let rec = |omega: &str| {
+            format!(
+                "[[records]]\nexcited = \"y\"\nomega = {omega}\namplitude = 0.002\n\
+                 operating_point = [0.0, 0.02]\n"
+            )
+        };
+        let d =
+            ExperimentDesign::from_toml(&format!("{head}{}{}", rec("20.0"), rec("3.0")), "d.toml")
+                .unwrap();
+        let metas = d.records();
+        assert_eq!(metas.len(), 2);
+        assert_eq!(metas[1].omega, 3.0);
+        assert_eq!(metas[0].excited, Axis::Y);
+        assert_eq!(metas[0].operating_point, [0.0, 0.02]);
+        let e =
+            ExperimentDesign::from_toml(&format!("{head}{}{}", rec("20.0"), rec("1e5")), "d.toml")
+                .unwrap_err();
+        assert!(e.starts_with("d.toml: records[1].omega = 100000"), "{e}");
+        let e =
+            ExperimentDesign::from_toml(&format!("{head}omegas = [1.0]\n{}", rec("2.0")), "d.toml")
+                .unwrap_err();
+        assert!(e.contains("not both"), "{e}");
+        let e = ExperimentDesign::from_toml(
+            &format!("{head}{}", rec("2.0").replace("amplitude", "amplitud")),
+            "d.toml",
+        )
+        .unwrap_err();
+        assert!(e.starts_with("d.toml") && e.contains("amplitud"), "{e}");
+        let e = ExperimentDesign::from_toml(head, "d.toml").unwrap_err();
+        assert!(e.contains("operating_points is empty"), "{e}");
     }
 
     #[test]

@@ -13,7 +13,14 @@ use super::counts::target_dir;
 use crate::env::{apply_env, prereqs, repo_root};
 
 /// The criterion benches `cargo xtask bench` runs, in order.
-pub const BENCHES: &[&str] = &["realtime", "fmu", "identify", "commands", "diagnose"];
+pub const BENCHES: &[&str] = &[
+    "realtime",
+    "fmu",
+    "identify",
+    "commands",
+    "diagnose",
+    "design_next",
+];
 
 /// Criterion ids whose medians go into the history and the table, with what they measure.
 pub const MEDIANS: &[(&str, &str)] = &[
@@ -52,6 +59,20 @@ pub const MEDIANS: &[(&str, &str)] = &[
     (
         "diagnose/friction_168",
         "diagnosis, friction robot (library)",
+    ),
+    (
+        "design_next/play_and_delay_168",
+        "design-next, a play and a delay's two rivals, 168-record campaign (library; target \
+         <= 30 s)",
+    ),
+    (
+        "design_next/budget_24_168",
+        "design-next, the same with the whole budget of 24 records designed (library)",
+    ),
+    (
+        "design_next/play_in_servo_168",
+        "design-next, the play inside the servo (describing functions simulated), 168-record \
+         campaign (library; target <= 30 s)",
     ),
 ];
 
