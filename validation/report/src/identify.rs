@@ -5,7 +5,7 @@
 //! intervals against the seed's SILO2 values, the excluded records and the warnings.
 
 use crate::plot::{bode_svg, Band, BodePanel, BodeSeries, PALETTE};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use num_complex::Complex64;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -174,7 +174,9 @@ fn fmt_v(v: f64) -> String {
 
 /// Writes the report into `dir` (created if needed; existing files need `force`).
 pub fn write_report(ident: &Identification, dir: &Path, force: bool) -> Result<ReportFiles> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    // A report folder (missing, empty or an earlier report; never a folder the tool did not
+    // write); each file in it needs `force` to be replaced.
+    zmp_files::claim_dir(dir, zmp_files::Kind::Report, true)?;
     let mut bode = Vec::new();
     let mut panels = Vec::new();
     for ch in Channel::ALL {
@@ -333,7 +335,7 @@ pub fn write_report(ident: &Identification, dir: &Path, force: bool) -> Result<R
     }
     h.push_str("</table>\n</body></html>\n");
     let html = dir.join("report.html");
-    zmp_files::atomic_write(&html, h.as_bytes(), force)?;
+    zmp_files::write_file(&html, zmp_files::Kind::Html, h.as_bytes(), force)?;
     Ok(ReportFiles {
         html,
         bode,

@@ -5,7 +5,6 @@ use anyhow::{anyhow, Result};
 use num_complex::Complex64;
 use plotters::prelude::*;
 use std::path::Path;
-use zmp_files::atomic_write;
 
 /// Line colours, in order of use.
 pub const PALETTE: [RGBColor; 6] = [
@@ -297,6 +296,13 @@ where
     Ok(())
 }
 
+/// Writes a plot through the one output path (`zmp_files`): an existing file needs
+/// `overwrite`, and only an SVG is ever replaced.
+fn write_svg(path: &Path, svg: &str, overwrite: bool) -> Result<()> {
+    zmp_files::write_file(path, zmp_files::Kind::Svg, svg.as_bytes(), overwrite)?;
+    Ok(())
+}
+
 /// Renders Bode panels on a grid of `cols` columns into one SVG file.
 pub fn bode_svg(path: &Path, panels: &[BodePanel], cols: usize, overwrite: bool) -> Result<()> {
     let cols = cols.max(1);
@@ -312,7 +318,7 @@ pub fn bode_svg(path: &Path, panels: &[BodePanel], cols: usize, overwrite: bool)
         }
         root.present().map_err(e)?;
     }
-    atomic_write(path, svg.as_bytes(), overwrite)
+    write_svg(path, &svg, overwrite)
 }
 
 /// One curve of a time plot.
@@ -404,7 +410,7 @@ pub fn time_svg(path: &Path, panels: &[TimePanel], overwrite: bool) -> Result<()
         }
         root.present().map_err(e)?;
     }
-    atomic_write(path, svg.as_bytes(), overwrite)
+    write_svg(path, &svg, overwrite)
 }
 
 /// A horizontal list of labelled bars (e.g. an error waterfall), with an optional reference
@@ -494,7 +500,7 @@ pub fn bars_svg(
         }
         root.present().map_err(e)?;
     }
-    atomic_write(path, svg.as_bytes(), overwrite)
+    write_svg(path, &svg, overwrite)
 }
 
 #[cfg(test)]
