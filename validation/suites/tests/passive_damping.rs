@@ -11,11 +11,10 @@
 //! refitted with everything else. Here the user's start model has one.
 
 use zmp_models::EffectKind;
-use zmp_suites::docs;
 use zmp_suites::indep_loop;
 
-use docs::doc_section;
 use indep_loop::loop_from;
+use zmp_files::sections::check_page as doc_section;
 use zmp_indep_sim::{draw_with, CouplingForm, Design, DrawOptions};
 use zmp_models::{Axis, Binding, ModelSpec};
 

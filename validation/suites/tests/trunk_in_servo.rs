@@ -13,14 +13,13 @@
 //! records alone.
 
 use zmp_models::EffectKind;
-use zmp_suites::docs;
 use zmp_suites::indep_loop;
 
-use docs::doc_section;
 use num_complex::Complex64;
 use zmp_campaign::read_campaign;
 use zmp_diagnose::measure::{aggregate, predict, score};
 use zmp_diagnose::run::observe_campaign;
+use zmp_files::sections::check_page as doc_section;
 use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Robot};
 use zmp_models::effects::servo_link::{joint_response, TrunkLink};
 use zmp_models::ModelSpec;
