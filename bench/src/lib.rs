@@ -138,12 +138,12 @@ pub fn report_peer(name: &str, ours_s: f64, peer_s: f64, unit: &str, note: &str)
         "name": name, "ours_s": ours_s, "peer_s": peer_s, "ratio": peer_s / ours_s,
         "unit": unit, "note": note,
     });
-    use std::io::Write;
-    let written = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(&path)
-        .and_then(|mut f| f.write_all(format!("{line}\n").as_bytes()));
+    let written = zmp_files::append_locked(
+        std::path::Path::new(&path),
+        zmp_files::Kind::BenchHistory,
+        zmp_files::limits::LEDGER_BYTES,
+        |_| Some(format!("{line}\n").into_bytes()),
+    );
     if let Err(e) = written {
         panic!(
             "appending to ZMP_BENCH_RESULTS={}: {e}",

@@ -76,7 +76,12 @@ pub fn write(parent: &Path) -> anyhow::Result<(PathBuf, PathBuf)> {
     write_campaign(&dir, &camp, true)?;
     let id = identify_read(&dir)?;
     let model = parent.join(MODEL);
-    std::fs::write(&model, id.model.to_toml())?;
+    zmp_files::write_file(
+        &model,
+        zmp_files::Kind::Model,
+        id.model.to_toml().as_bytes(),
+        true,
+    )?;
     Ok((dir, model))
 }
 

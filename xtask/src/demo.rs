@@ -1,10 +1,9 @@
 //! `cargo xtask demo`: the main job on built-in data.
 
 use crate::simulate::{load_model, simulate};
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use zmp_files::atomic_write;
 use zmp_models::closed_loop::{run, StepExperiment, StepMetrics};
 use zmp_models::controller::{CascadeController, CascadeParams};
 use zmp_models::effects::uncertainty::weight;
@@ -16,7 +15,8 @@ use zmp_report::plot::{
 };
 use zmp_virtual_robot::ExperimentDesign;
 
-const MARKER: &str = ".zmp-demo-output";
+#[cfg(test)]
+const MARKER: &str = zmp_files::DEMO_MARKER;
 
 #[derive(Serialize)]
 struct Summary {
@@ -51,57 +51,16 @@ impl From<StepMetrics> for Metrics {
     }
 }
 
-/// Why the demo may not write into `out`, if it may not: a folder that is neither missing,
-/// empty, nor an earlier demo output (it holds the marker file) may be the user's, and is
-/// refused whatever `--force` says.
-fn refusal(out: &Path) -> Result<Option<String>> {
-    let m = match std::fs::symlink_metadata(out) {
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(e).with_context(|| format!("inspecting {}", out.display())),
-        Ok(m) => m,
-    };
-    if m.file_type().is_symlink() {
-        return Ok(Some(format!(
-            "{} is a symbolic link; pass its target as --out if it is a demo output folder",
-            out.display()
-        )));
-    }
-    if !m.is_dir() {
-        return Ok(Some(format!(
-            "{} exists and is not a folder",
-            out.display()
-        )));
-    }
-    let ours = out.join(MARKER).is_file();
-    let empty = out
-        .read_dir()
-        .with_context(|| format!("reading {}", out.display()))?
-        .next()
-        .is_none();
-    Ok((!(ours || empty)).then(|| {
-        format!(
-            "{} exists and is not a demo output folder (it has no {MARKER} marker); the demo \
-             replaces only its own earlier output, even with --force: choose another --out",
-            out.display()
-        )
-    }))
-}
-
-/// Prepares the demo's output folder: created if missing, replaced if it is empty or holds an
-/// earlier demo's output, refused otherwise (see [`refusal`]).
+/// Prepares the demo's output folder through the one output path (`zmp_files`): a fresh
+/// folder with the demo's marker takes the place of a missing or empty one or of an earlier
+/// demo output (swapped in whole, the old one then removed, so a killed run never leaves a
+/// folder without its marker); any other folder may be the user's and is refused whatever
+/// `--force` says.
 pub fn prepare_out(out: &Path) -> Result<()> {
-    if let Some(why) = refusal(out)? {
-        bail!(why);
-    }
-    if out.exists() {
-        std::fs::remove_dir_all(out).with_context(|| format!("removing {}", out.display()))?;
-    }
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    atomic_write(
-        &out.join(MARKER),
-        b"written by cargo xtask demo; replaced on the next run\n",
-        true,
-    )
+    zmp_files::write_dir(out, zmp_files::Kind::DemoOutput, true, |_| {
+        Ok::<_, zmp_files::FileError>(())
+    })?;
+    Ok(())
 }
 
 pub fn bode_panels(spec: &ModelSpec, title_prefix: &str) -> Result<Vec<BodePanel>> {
@@ -195,9 +154,7 @@ pub fn closed_loop_plot(spec: &ModelSpec, path: &Path) -> Result<StepMetrics> {
 /// replaces anything else.
 pub fn demo(out: &Path, _force: bool, json: bool) -> Result<()> {
     // A refused folder is refused before the minute of setup.
-    if let Some(why) = refusal(out)? {
-        bail!(why);
-    }
+    zmp_files::check_dir(out, zmp_files::Kind::DemoOutput, true)?;
     crate::setup::setup(true)?;
     prepare_out(out)?;
     let root = crate::env::repo_root();

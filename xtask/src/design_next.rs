@@ -8,7 +8,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use zmp_diagnose::design::limits::CapSource;
 use zmp_diagnose::design::{design_next, to_toml, DesignOptions, Designed, Rival};
-use zmp_files::{atomic_write, check_output_file};
+use zmp_files::{check_file, write_file, Kind};
 
 /// What `cargo xtask design-next` was asked.
 #[derive(clap::Args, Debug)]
@@ -49,7 +49,7 @@ fn default_out(campaign: &Path) -> PathBuf {
 
 pub fn design_next_cmd(a: &DesignArgs) -> Result<Designed> {
     let out = a.out.clone().unwrap_or_else(|| default_out(&a.campaign));
-    check_output_file(&out, a.force)?;
+    check_file(&out, Kind::Design, a.force)?;
     let rivals = a
         .models
         .iter()
@@ -88,7 +88,7 @@ pub fn design_next_cmd(a: &DesignArgs) -> Result<Designed> {
     // No record needed (the campaign separates every pair already), or none helps: no file.
     let written = (!d.records.is_empty()).then_some(out.as_path());
     if let Some(out) = written {
-        atomic_write(out, to_toml(&d).as_bytes(), a.force)
+        write_file(out, Kind::Design, to_toml(&d).as_bytes(), a.force)
             .with_context(|| format!("writing design {}", out.display()))?;
     }
     if a.json {

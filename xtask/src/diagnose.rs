@@ -12,7 +12,7 @@ use zmp_diagnose::measure::{aggregate, score};
 use zmp_diagnose::observe::Observation;
 use zmp_diagnose::run::{check_inputs, observe_campaign};
 use zmp_diagnose::{diagnose, DiagnoseOptions, Diagnosis};
-use zmp_files::{atomic_write, check_output_file, claim_dir, REPORT_MARKER};
+use zmp_files::{check_file, claim_dir, write_file, Kind};
 use zmp_report::diagnose::{write_compare_report, write_diagnosis_report};
 use zmp_report::plot::bars_svg;
 
@@ -47,7 +47,7 @@ pub fn compare(
     force: bool,
     json: bool,
 ) -> Result<()> {
-    claim_dir(report, REPORT_MARKER, force, "report")?;
+    claim_dir(report, Kind::Report, force)?;
     let spec = load_model(model)?;
     let camp = read(campaign, json)?;
     let opts = options(campaign, model);
@@ -180,7 +180,7 @@ pub fn diagnose_cmd(
     json: bool,
 ) -> Result<Diagnosis> {
     if let Some(dir) = report {
-        claim_dir(dir, REPORT_MARKER, force, "report")?;
+        claim_dir(dir, Kind::Report, force)?;
     }
     let spec = load_model(model)?;
     let camp = read(campaign, json)?;
@@ -229,36 +229,55 @@ fn ensure_root(model: &Path, campaign: &str, error: f64, floor: f64) -> Result<(
     Ok(())
 }
 
+/// What `cargo xtask augment` was asked.
+pub struct AugmentArgs<'a> {
+    pub model: &'a Path,
+    pub effect: &'a str,
+    pub campaign: &'a Path,
+    pub out: Option<&'a Path>,
+    pub force: bool,
+    pub json: bool,
+    /// Write the model without its ledger entries (else a failed entry is a failed run).
+    pub no_ledger: bool,
+}
+
 /// `cargo xtask augment`.
-pub fn augment_cmd(
-    model: &Path,
-    effect: &str,
-    campaign: &Path,
-    out: Option<&Path>,
-    force: bool,
-    json: bool,
-) -> Result<(PathBuf, Augmented)> {
+pub fn augment_cmd(args: &AugmentArgs) -> Result<(PathBuf, Augmented)> {
+    let AugmentArgs {
+        model,
+        effect,
+        campaign,
+        out,
+        force,
+        json,
+        no_ledger,
+    } = *args;
     let out = out
         .map(Path::to_path_buf)
         .unwrap_or_else(|| augmented_path(model, effect));
-    check_output_file(&out, force)?;
+    check_file(&out, Kind::Model, force)?;
     let spec = load_model(model)?;
     let camp = read(campaign, json)?;
     let opts = options(campaign, model);
     let pb = progress_bar(1, "fitting", json);
     let a = augment(&camp, &spec, effect, &opts)?;
     pb.finish_and_clear();
-    atomic_write(&out, a.spec.to_toml().as_bytes(), force)?;
-    let cname = campaign.display().to_string();
-    ensure_root(model, &cname, a.error_before, a.noise_floor)?;
-    ledger::append(
-        &out,
-        Some(model),
-        &a.change,
-        &cname,
-        a.error_after,
-        a.noise_floor,
-    )?;
+    let written = write_file(&out, Kind::Model, a.spec.to_toml().as_bytes(), force)?;
+    if !no_ledger && !written.special {
+        let cname = campaign.display().to_string();
+        ensure_root(model, &cname, a.error_before, a.noise_floor)
+            .and_then(|()| {
+                ledger::append(
+                    &out,
+                    Some(model),
+                    &a.change,
+                    &cname,
+                    a.error_after,
+                    a.noise_floor,
+                )
+            })
+            .map_err(|e| crate::identify::ledger_failed(e, &out))?;
+    }
     if json {
         let v = serde_json::json!({
             "model": out, "parent": model, "effect": effect,
@@ -285,19 +304,18 @@ pub fn augment_cmd(
     Ok((out, a))
 }
 
-/// The versions leading to `model` and the waterfall plot (written).
-pub fn history_plot(
-    model: &Path,
-    plot: Option<&Path>,
-    force: bool,
-) -> Result<(Vec<ledger::Entry>, bool, PathBuf, Vec<String>)> {
-    let ledger::History {
-        chain,
-        edited,
-        warnings,
-    } = ledger::history(model)?;
+/// What [`history_plot`] found and drew.
+pub struct HistoryPlot {
+    pub history: ledger::History,
+    pub plot: PathBuf,
+}
+
+/// The versions leading to `model` and the waterfall plot (written through the one output
+/// path: an existing plot needs `force`, and only an SVG is ever replaced).
+pub fn history_plot(model: &Path, plot: Option<&Path>, force: bool) -> Result<HistoryPlot> {
+    let history = ledger::history(model)?;
     // Damaged ledger lines are skipped, never fatal; say so on standard error.
-    for w in &warnings {
+    for w in &history.warnings {
         eprintln!("warning: {w}");
     }
     let plot = plot.map(Path::to_path_buf).unwrap_or_else(|| {
@@ -307,6 +325,7 @@ pub fn history_plot(
             .unwrap_or_default();
         model.with_file_name(format!("{stem}.history.svg"))
     });
+    let chain = &history.chain;
     let bars: Vec<(String, f64)> = chain.iter().map(|e| (e.change.clone(), e.error)).collect();
     let floor = chain.last().map_or(f64::NAN, |e| e.noise_floor);
     bars_svg(
@@ -320,15 +339,21 @@ pub fn history_plot(
         Some((floor, "noise floor")),
         force,
     )?;
-    Ok((chain, edited, plot, warnings))
+    Ok(HistoryPlot { history, plot })
 }
 
 /// `cargo xtask history`.
 pub fn history_cmd(model: &Path, plot: Option<&Path>, force: bool, json: bool) -> Result<()> {
-    let (chain, edited, plot, warnings) = history_plot(model, plot, force)?;
+    let HistoryPlot { history, plot } = history_plot(model, plot, force)?;
+    let ledger::History {
+        chain,
+        edited,
+        warnings,
+        notes,
+    } = history;
     if json {
         let v = serde_json::json!({"versions": chain, "edited_since": edited, "plot": plot,
-            "warnings": warnings});
+            "warnings": warnings, "notes": notes});
         println!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(());
     }
@@ -352,6 +377,9 @@ pub fn history_cmd(model: &Path, plot: Option<&Path>, force: bool, json: bool) -
             e.campaign
         );
         prev = Some(e.error);
+    }
+    for n in &notes {
+        println!("note: {n}");
     }
     if edited {
         println!(

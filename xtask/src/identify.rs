@@ -5,7 +5,7 @@ use crate::simulate::progress_bar;
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 use zmp_campaign::{read_campaign, read_manifest};
-use zmp_files::{check_output_file, claim_dir, REPORT_MARKER};
+use zmp_files::{check_file, claim_dir, Kind};
 use zmp_identify::{
     analyse_folder, analyse_records, identify_analysed, identify_with_progress, summary_json,
     write_model, Identification, IdentifyOptions,
@@ -51,6 +51,8 @@ pub struct IdentifyArgs<'a> {
     pub include_saturation: bool,
     pub force: bool,
     pub json: bool,
+    /// Write the model without its ledger entry (else a failed entry is a failed run).
+    pub no_ledger: bool,
 }
 
 /// Runs the identification; writes the model (and the report if asked).
@@ -60,9 +62,9 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
         .map(Path::to_path_buf)
         .unwrap_or_else(|| default_out(campaign));
     // Where the results go is checked before the work starts (and again when written).
-    check_output_file(&out, force)?;
+    check_file(&out, Kind::Model, force)?;
     if let Some(dir) = report {
-        claim_dir(dir, REPORT_MARKER, force, "report")?;
+        claim_dir(dir, Kind::Report, force)?;
     }
     let start_model = a.model.map(load_model).transpose()?;
     let quiet = json;
@@ -117,10 +119,19 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
             change = "refit".into();
         }
     }
-    write_model(&ident, &out, force)?;
+    let written = write_model(&ident, &out, force)?;
     // The ledger's error reuses the identification's own record analyses.
-    let (obs, _) = zmp_diagnose::run::observations_of(&ident.records);
-    record_in_ledger(&obs, &ident.model, &out, a.model, &change, &dopts, quiet);
+    if written.special && !a.no_ledger && !quiet {
+        eprintln!(
+            "note: {} is not a regular file (the model was written into it): no ledger entry",
+            out.display()
+        );
+    }
+    if !written.special && !a.no_ledger {
+        let (obs, _) = zmp_diagnose::run::observations_of(&ident.records);
+        record_in_ledger(&obs, &ident.model, &out, a.model, &change, &dopts)
+            .map_err(|e| ledger_failed(e, &out))?;
+    }
     let files = match report {
         Some(dir) => Some(write_report(&ident, dir, force)?),
         None => None,
@@ -174,8 +185,18 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
     Ok(ident)
 }
 
-/// Records the written model in the ledger beside it, with its error on the campaign (a
-/// failure here is a warning: the model file is written).
+/// A failed ledger entry as the run's error: the model stays written, and the message names
+/// it and says how to write models without a ledger.
+pub fn ledger_failed(e: anyhow::Error, model: &Path) -> anyhow::Error {
+    e.context(format!(
+        "the model was written to {} and is kept, but its ledger entry was not written (so \
+         `history` cannot follow it); fix the ledger, or pass --no-ledger to write models \
+         without one",
+        model.display()
+    ))
+}
+
+/// Records the written model in the ledger beside it, with its error on the campaign.
 pub fn record_in_ledger(
     obs: &[zmp_diagnose::observe::Observation],
     spec: &zmp_models::ModelSpec,
@@ -183,40 +204,34 @@ pub fn record_in_ledger(
     parent: Option<&Path>,
     change: &str,
     opts: &zmp_diagnose::DiagnoseOptions,
-    quiet: bool,
-) {
+) -> Result<()> {
     use zmp_diagnose::{engine::evaluate, measure::aggregate};
-    let run = || -> Result<()> {
-        let refs: Vec<_> = obs.iter().collect();
-        let (e, f) = aggregate(&evaluate(spec, &refs)?);
-        // A starting model in the same folder joins the chain (recorded first if new).
-        let parent = parent.filter(|p| p.parent() == out.parent() && p != &out);
-        if let Some(p) = parent {
-            let name = p.file_name().and_then(|n| n.to_str());
-            let known = zmp_campaign::ledger::read(out)?
-                .entries
-                .iter()
-                .any(|e| Some(e.model.as_str()) == name);
-            if !known {
-                let start = crate::simulate::load_model(p)?;
-                let (e0, f0) = aggregate(&evaluate(&start, &refs)?);
-                zmp_campaign::ledger::append_unless_recorded(
-                    p,
-                    "starting model",
-                    &opts.campaign_path,
-                    e0,
-                    f0,
-                )?;
-            }
-        }
-        zmp_campaign::ledger::append(out, parent, change, &opts.campaign_path, e, f)?;
-        Ok(())
-    };
-    if let Err(e) = run() {
-        if !quiet {
-            eprintln!("warning: the model's ledger entry was not written: {e:#}");
+    let refs: Vec<_> = obs.iter().collect();
+    let (e, f) = aggregate(&evaluate(spec, &refs)?);
+    // A starting model in the same folder joins the chain (recorded first if these contents
+    // have no entry yet).
+    let parent = parent.filter(|p| p.parent() == out.parent() && p != &out);
+    if let Some(p) = parent {
+        let name = p.file_name().and_then(|n| n.to_str());
+        let bytes = zmp_files::read_limited(p, zmp_files::limits::MODEL_BYTES, "a model file")?;
+        let known = zmp_campaign::ledger::read(out)?.entries.iter().any(|e| {
+            Some(e.model.as_str()) == name
+                && zmp_campaign::ledger::hash_matches(&e.hash, &bytes) == Some(true)
+        });
+        if !known {
+            let start = crate::simulate::load_model(p)?;
+            let (e0, f0) = aggregate(&evaluate(&start, &refs)?);
+            zmp_campaign::ledger::append_unless_recorded(
+                p,
+                "starting model",
+                &opts.campaign_path,
+                e0,
+                f0,
+            )?;
         }
     }
+    zmp_campaign::ledger::append(out, parent, change, &opts.campaign_path, e, f)?;
+    Ok(())
 }
 
 /// The demo's identification step: identifies the in-memory virtual campaign, writes

@@ -13,7 +13,7 @@ use zmp_campaign::Campaign;
 use zmp_diagnose::iterate::MAX_ROUNDS;
 use zmp_diagnose::observe::Observation;
 use zmp_diagnose::DiagnoseOptions;
-use zmp_identify::{write_model, IdentifyOptions};
+use zmp_identify::IdentifyOptions;
 use zmp_report::diagnose::write_diagnosis_report;
 
 /// What `cargo xtask loop` was asked.
@@ -77,18 +77,163 @@ fn options(
     }
 }
 
+/// The longest `--time-limit`: a week (a loop that runs longer is stuck, not slow; and the
+/// deadline, now + limit, must be a time the clock can hold).
+pub const MAX_TIME_LIMIT: std::time::Duration = std::time::Duration::from_secs(7 * 24 * 3600);
+
+/// Parses `--time-limit`: seconds (`900`), or a number with the unit `s`, `min` or `h`
+/// (`90s`, `15min`, `2h`); `0` is no limit (`None`). More than [`MAX_TIME_LIMIT`] is an error
+/// that says so, never a panic.
+pub fn parse_time_limit(s: &str) -> std::result::Result<TimeLimit, String> {
+    let bound = format!(
+        "a duration of at most {} s (7 days) is expected; 0 means no limit",
+        MAX_TIME_LIMIT.as_secs()
+    );
+    let t = s.trim();
+    let (number, unit) = match t.find(|c: char| !c.is_ascii_digit() && c != '.') {
+        Some(k) => (&t[..k], t[k..].trim()),
+        None => (t, "s"),
+    };
+    let scale = match unit {
+        "s" => 1.0,
+        "min" | "m" => 60.0,
+        "h" => 3600.0,
+        _ => {
+            return Err(format!(
+                "{s:?}: not seconds (900) nor a number with the unit s, min or h (15min): {bound}"
+            ))
+        }
+    };
+    let v: f64 = number.parse().map_err(|_| {
+        format!("{s:?}: not a number of seconds (900) or a duration (15min): {bound}")
+    })?;
+    let secs = v * scale;
+    if !(secs.is_finite() && secs >= 0.0) {
+        return Err(format!("{s:?}: not a duration: {bound}"));
+    }
+    if secs > MAX_TIME_LIMIT.as_secs_f64() {
+        return Err(format!("{s}: longer than the longest limit: {bound}"));
+    }
+    Ok(TimeLimit(
+        (secs > 0.0).then(|| std::time::Duration::from_secs_f64(secs)),
+    ))
+}
+
+/// A parsed `--time-limit` (`None`: no limit).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimeLimit(pub Option<std::time::Duration>);
+
 /// `cargo xtask loop`.
 pub fn loop_cmd(a: &LoopArgs) -> Result<LoopSummary> {
-    let camp = read(a.campaign, a.json)?;
-    let summary = run_loop(&camp, a, a.json)?;
+    // The time limit covers the whole command: reading the campaign and identifying it too
+    // (an inner limit set later does not extend this one).
+    let deadline = a.time_limit.map(|d| std::time::Instant::now() + d);
+    let summary = zmp_campaign::par::with_deadline(deadline, || {
+        let camp = read(a.campaign, a.json)?;
+        run_loop(&camp, a, a.json)
+    })?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     }
     Ok(summary)
 }
 
-/// Marker of a loop output folder.
-pub const LOOP_MARKER: &str = ".zmp-loop-output";
+/// The files a loop run writes into its folder, listed in the folder's marker (its name
+/// before the file is written, its SHA-256 after), so that `loop --force` removes exactly the
+/// earlier run's own versions, and only while they are as it wrote them.
+struct OwnFiles {
+    marker: PathBuf,
+    lines: Vec<String>,
+}
+
+impl OwnFiles {
+    /// The marker's header line (what any marker of this folder kind starts with).
+    fn header(&self) -> String {
+        format!(
+            "This folder holds {} written by zmp-toolkit; `--force` may replace its files.",
+            zmp_files::Kind::LoopOutput.describe()
+        )
+    }
+
+    /// Removes what an earlier run listed: a model still as written (its hash matches) or
+    /// whose write was cut short (no hash yet, and still a model file), a report folder that
+    /// holds its marker, the waterfall if it is an SVG. Anything else stays.
+    fn remove_earlier(out: &Path) -> Result<Vec<PathBuf>> {
+        let marker = out.join(zmp_files::LOOP_MARKER);
+        let text = zmp_files::read_limited_text(&marker, 1 << 20, "a marker file")?;
+        let mut hashes = std::collections::HashMap::new();
+        let mut listed = Vec::new();
+        for line in text.lines() {
+            let mut w = line.splitn(3, ' ');
+            match (w.next(), w.next(), w.next()) {
+                (Some("file"), Some(kind), Some(name)) => {
+                    listed.push((kind.to_string(), name.to_string()))
+                }
+                (Some("sha256"), Some(hash), Some(name)) => {
+                    hashes.insert(name.to_string(), hash.to_string());
+                }
+                _ => {}
+            }
+        }
+        let mut removed = Vec::new();
+        for (kind, name) in listed {
+            if name.contains('/') || name.starts_with('.') {
+                continue;
+            }
+            let p = out.join(&name);
+            // A model only while it is as the run wrote it (its hash), or, cut short before its
+            // hash was listed, while it is a model; each only if of the kind listed.
+            let (kind, unchanged) = match kind.as_str() {
+                "model" => (
+                    zmp_files::Kind::Model,
+                    hashes.get(&name).is_none_or(|h| {
+                        zmp_files::read_limited(&p, zmp_files::limits::MODEL_BYTES, "a model")
+                            .is_ok_and(|b| zmp_files::sha256_hex(&b) == *h)
+                    }),
+                ),
+                "svg" => (zmp_files::Kind::Svg, true),
+                "report" => (zmp_files::Kind::Report, true),
+                _ => continue,
+            };
+            if unchanged && zmp_files::remove(&p, kind)? {
+                removed.push(p);
+            }
+        }
+        Ok(removed)
+    }
+
+    fn new(out: &Path) -> OwnFiles {
+        OwnFiles {
+            marker: out.join(zmp_files::LOOP_MARKER),
+            lines: Vec::new(),
+        }
+    }
+
+    /// Adds a line to the marker (rewritten atomically).
+    fn note(&mut self, line: String) -> Result<()> {
+        self.lines.push(line);
+        let text = format!("{}\n{}\n", self.header(), self.lines.join("\n"));
+        zmp_files::write_file(&self.marker, zmp_files::Kind::Marker, text.as_bytes(), true)?;
+        Ok(())
+    }
+
+    /// Writes a model version: listed first, then written, then its hash listed.
+    fn write_model(&mut self, path: &Path, text: &str) -> Result<()> {
+        let name = file_name(path);
+        self.note(format!("file model {name}"))?;
+        zmp_files::write_file(path, zmp_files::Kind::Model, text.as_bytes(), true)?;
+        self.note(format!(
+            "sha256 {} {name}",
+            zmp_files::sha256_hex(text.as_bytes())
+        ))
+    }
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
 
 /// The loop on a campaign already read; `quiet` hides the narration (not the waterfall
 /// table unless `a.json`).
@@ -98,9 +243,14 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
             println!("{s}");
         }
     };
-    let out = a.out;
-    // The output folder is claimed before any work: only a folder the loop wrote is replaced.
-    zmp_files::claim_dir(out, LOOP_MARKER, a.force, "loop output")?;
+    // The output folder is claimed before any work: only a folder the loop wrote is replaced,
+    // and the earlier run's own versions are removed first, so two runs never mix in it.
+    let out = &zmp_files::claim_dir(a.out, zmp_files::Kind::LoopOutput, a.force)?;
+    for p in OwnFiles::remove_earlier(out)? {
+        say(&format!("   removed the earlier run's {}", p.display()));
+    }
+    let mut own = OwnFiles::new(out);
+    own.note("(the files this run wrote, and their hashes)".into())?;
     let identified = out.join("identified.toml");
     let start = a.model.map(load_model).transpose()?;
     let dopts = options(a.campaign, &identified, a.time_limit);
@@ -120,7 +270,7 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         say(&format!("   identify: {w}"));
     }
     // The files: the identified model, each version, the ledger, the reports.
-    write_model(&r.identification, &identified, true)?;
+    own.write_model(&identified, &r.identification.model.to_toml())?;
     let cname = a.campaign.display().to_string();
     ledger::append(
         &identified,
@@ -150,7 +300,8 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         } else {
             out.join(format!("diagnosis-{}", k + 1))
         };
-        zmp_files::claim_dir(&dir, zmp_files::REPORT_MARKER, true, "report")?;
+        own.note(format!("file report {}", file_name(&dir)))?;
+        zmp_files::claim_dir(&dir, zmp_files::Kind::Report, true)?;
         reports.push(write_diagnosis_report(camp, d, &dir, true)?);
         say(&format!(
             "diagnosis {}: verdict {}{}",
@@ -175,7 +326,7 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
             added.join("+")
         };
         let next = augmented_path(&current_path, &label);
-        zmp_files::atomic_write(&next, aug.spec.to_toml().as_bytes(), true)?;
+        own.write_model(&next, &aug.spec.to_toml())?;
         ledger::append(
             &next,
             Some(&current_path),
@@ -208,6 +359,7 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         .map(|c| c.line())
         .collect();
     let history = out.join("history.svg");
+    own.note("file svg history.svg".into())?;
     if quiet {
         history_plot(&current_path, Some(&history), true)?;
     } else {
@@ -280,7 +432,6 @@ pub const DEMO_SEED: u64 = 7;
 /// written by that simulator and the loop sees only the folder.
 pub fn demo_loop(dir: &Path, quiet: bool) -> Result<DemoLoop> {
     use zmp_indep_sim::{draw_with, write_campaign, Design, DrawOptions, Scenario};
-    std::fs::create_dir_all(dir)?;
     let design = Design::default();
     let scenario: Scenario = "pair:time_delay,sensor_drift"
         .parse()
@@ -292,7 +443,12 @@ pub fn demo_loop(dir: &Path, quiet: bool) -> Result<DemoLoop> {
     pb.finish_and_clear();
     // The truth stays outside the campaign folder.
     let truth = dir.join("truth.json");
-    zmp_files::atomic_write(&truth, robot.to_json().as_bytes(), true)?;
+    zmp_files::write_file(
+        &truth,
+        zmp_files::Kind::Json,
+        robot.to_json().as_bytes(),
+        true,
+    )?;
     let hidden: Vec<String> = robot.hidden.iter().map(|h| h.name.to_string()).collect();
     if !quiet {
         println!(

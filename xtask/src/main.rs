@@ -8,6 +8,7 @@ mod demo_com;
 mod design_next;
 mod diagnose;
 mod env;
+mod files_doc;
 mod fmu;
 mod identify;
 mod links;
@@ -224,13 +225,18 @@ enum Cmd {
         /// reported, and the model stays the seed's linear one).
         #[arg(long)]
         include_saturation: bool,
-        /// Overwrite an existing model file / report files.
+        /// Overwrite an existing model file / report files (only files of the same kind: a
+        /// model over a model, never over another file).
         #[arg(long)]
         force: bool,
         /// Print a machine-readable summary (parameters, standard errors, excluded records,
         /// warnings).
         #[arg(long)]
         json: bool,
+        /// Write the model without an entry in the ledger beside it. Without it, a ledger
+        /// entry that cannot be written fails the run (the model is kept and named).
+        #[arg(long)]
+        no_ledger: bool,
     },
     /// Compare a model with a campaign: one error measure per record and channel against its
     /// noise floor, where the model fails (channel, frequency band, amplitude, operating
@@ -293,12 +299,16 @@ enum Cmd {
         /// Model file to write.
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Overwrite an existing output file.
+        /// Overwrite an existing output file (a model file only).
         #[arg(long)]
         force: bool,
         /// Print the result as JSON.
         #[arg(long)]
         json: bool,
+        /// Write the model without ledger entries. Without it, a ledger entry that cannot be
+        /// written fails the run (the model is kept and named).
+        #[arg(long)]
+        no_ledger: bool,
     },
     /// The whole loop in one command: identify the seed's model (with the acceleration limit
     /// when the data show one), diagnose it, add what the diagnosis finds one effect at a time
@@ -322,13 +332,15 @@ enum Cmd {
         /// Print a machine-readable summary (versions, errors, effects found, outcome).
         #[arg(long)]
         json: bool,
-        /// Wall-clock limit of the whole loop, in seconds (0: none). Past it every fit ends
-        /// with its best parameters so far, the loop stops, writes what it reached and says
-        /// so (`time_limit_reached` in --json). Most campaigns take seconds to a minute or
-        /// two; a friction beside a play and a mode, whose describing functions are simulated
-        /// at every evaluation, can take far longer.
-        #[arg(long, value_name = "SECONDS", default_value_t = 900)]
-        time_limit: u64,
+        /// Wall-clock limit of the whole loop, reading and identification included: seconds
+        /// (900) or a duration (90s, 15min, 2h), at most 7 days; 0: none. Past it every fit
+        /// ends with its best parameters so far (records not yet analysed are left out), the
+        /// loop stops, writes what it reached and says so (`time_limit_reached` in --json).
+        /// Most campaigns take seconds to a minute or two; a friction beside a play and a
+        /// mode, whose describing functions are simulated at every evaluation, can take far
+        /// longer.
+        #[arg(long, value_name = "SECONDS", default_value = "900", value_parser = loop_cmd::parse_time_limit)]
+        time_limit: loop_cmd::TimeLimit,
     },
     /// Robust stability of the cascade ZMP controller against a model's multiplicative
     /// uncertainty (first seed, sections 6.4-6.6): the closed loop's complementary sensitivity
@@ -378,6 +390,9 @@ enum Cmd {
         /// Waterfall plot (default <model>.history.svg beside it).
         #[arg(long)]
         plot: Option<PathBuf>,
+        /// Replace an existing plot (an SVG only: never the ledger, a model or another file).
+        #[arg(long)]
+        force: bool,
         /// Print the versions as JSON.
         #[arg(long)]
         json: bool,
@@ -486,6 +501,7 @@ fn dispatch(command: Cmd) -> Result<()> {
             include_saturation,
             force,
             json,
+            no_ledger,
         } => {
             let bw = bandwidth
                 .as_deref()
@@ -500,6 +516,7 @@ fn dispatch(command: Cmd) -> Result<()> {
                 include_saturation,
                 force,
                 json,
+                no_ledger,
             })
             .map(|_| ())
         }
@@ -525,9 +542,17 @@ fn dispatch(command: Cmd) -> Result<()> {
             out,
             force,
             json,
-        } => {
-            diagnose::augment_cmd(&model, &add, &campaign, out.as_deref(), force, json).map(|_| ())
-        }
+            no_ledger,
+        } => diagnose::augment_cmd(&diagnose::AugmentArgs {
+            model: &model,
+            effect: &add,
+            campaign: &campaign,
+            out: out.as_deref(),
+            force,
+            json,
+            no_ledger,
+        })
+        .map(|_| ()),
         Cmd::Loop {
             campaign,
             model,
@@ -549,7 +574,7 @@ fn dispatch(command: Cmd) -> Result<()> {
                 out: &out,
                 force,
                 json,
-                time_limit: (time_limit > 0).then(|| std::time::Duration::from_secs(time_limit)),
+                time_limit: time_limit.0,
             })
             .map(|_| ())
         }
@@ -589,9 +614,12 @@ fn dispatch(command: Cmd) -> Result<()> {
             json,
         })
         .map(|_| ()),
-        Cmd::History { model, plot, json } => {
-            diagnose::history_cmd(&model, plot.as_deref(), true, json)
-        }
+        Cmd::History {
+            model,
+            plot,
+            force,
+            json,
+        } => diagnose::history_cmd(&model, plot.as_deref(), force, json),
         Cmd::Fmu { model, out, force } => fmu::build_fmus(&model, &out, force).map(|files| {
             for f in files {
                 println!("{}", f.display());

@@ -5,7 +5,7 @@
 use crate::simulate::load_model;
 use anyhow::{bail, Context, Result};
 use std::path::Path;
-use zmp_files::check_output_file;
+use zmp_files::{check_file, Kind};
 use zmp_models::robust::{analyse_model, CascadeLoop, Grid, RobustAnalysis};
 use zmp_report::robust::{summary, write_plot};
 
@@ -68,7 +68,7 @@ pub fn controller(a: &RobustArgs) -> Result<CascadeLoop> {
 /// `cargo xtask robust`.
 pub fn robust(a: &RobustArgs) -> Result<RobustAnalysis> {
     if let Some(p) = a.plot {
-        check_output_file(p, a.force)?;
+        check_file(p, Kind::Svg, a.force)?;
     }
     let spec = load_model(a.model)?;
     let ctrl = controller(a)?;

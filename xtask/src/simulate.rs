@@ -8,7 +8,7 @@ use zmp_models::ModelSpec;
 use zmp_virtual_robot::{simulate_records_after, ExperimentDesign};
 
 pub fn load_model(path: &Path) -> Result<ModelSpec> {
-    let text = std::fs::read_to_string(path)
+    let text = zmp_files::read_limited_text(path, zmp_files::limits::MODEL_BYTES, "a model file")
         .with_context(|| format!("reading model file {}", path.display()))?;
     Ok(ModelSpec::parse(&text, &path.display().to_string())?)
 }
@@ -17,7 +17,7 @@ pub fn load_design(path: Option<&Path>) -> Result<ExperimentDesign> {
     match path {
         None => Ok(ExperimentDesign::reference()),
         Some(p) => {
-            let text = std::fs::read_to_string(p)
+            let text = zmp_files::read_limited_text(p, zmp_files::limits::MODEL_BYTES, "a design")
                 .with_context(|| format!("reading design file {}", p.display()))?;
             ExperimentDesign::from_toml(&text, &p.display().to_string()).map_err(anyhow::Error::msg)
         }

@@ -1,6 +1,10 @@
 //! Building the FMU archives: `cargo build` of the shared libraries, then the FMU folder layout
 //! (`modelDescription.xml`, `binaries/<platform>/<modelIdentifier>.so`, `resources/model.toml`,
-//! `documentation/index.html`) zipped to a temporary file and renamed into place.
+//! `documentation/index.html`) zipped in memory and written through the one output path
+//! (`zmp_files`: atomically, never over anything but an FMU, an existing one only with
+//! `force`). The packager writes its files itself rather than hand bytes to each caller: the
+//! CLI, the FMU tests and the benches all call [`build_fmus`], and `zmp-files` is a leaf
+//! crate that adds nothing to the FMU's shared library (this module is not part of it).
 //!
 //! The FMI 2.0 binary (`zmp-fmu`) is generic: it reads `resources/model.toml` at instantiation.
 //! The FMI 3.0 binaries (`zmp-fmi3-plant`, `zmp-fmi3-controller`) embed the model: fmi-export
@@ -127,69 +131,35 @@ fn cargo_build(
     Ok(a)
 }
 
-/// Writes `entries` as a zip archive at `path`: to a temporary file in the same directory,
-/// synced, then moved into place: renamed over an existing file when `overwrite`, otherwise
-/// hard-linked, which refuses an existing file atomically (a concurrent writer that got there
-/// first wins, and this one gets the `--force` error).
-pub fn write_zip(
-    path: &Path,
-    entries: &[(String, Vec<u8>)],
-    overwrite: bool,
-) -> Result<(), String> {
-    let dir = path.parent().unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let tmp = dir.join(format!(
-        ".{}.tmp{}",
-        path.file_name().and_then(|n| n.to_str()).unwrap_or("fmu"),
-        std::process::id()
-    ));
-    let result = (|| -> Result<(), String> {
-        let file = std::fs::File::create(&tmp).map_err(|e| format!("{}: {e}", tmp.display()))?;
-        let mut zw = zip::ZipWriter::new(file);
-        let opts = zip::write::SimpleFileOptions::default()
-            .compression_method(zip::CompressionMethod::Deflated)
-            .unix_permissions(0o644);
-        let mut dirs: Vec<String> = Vec::new();
-        for (name, _) in entries {
-            let mut acc = String::new();
-            let parts: Vec<&str> = name.split('/').collect();
-            for p in &parts[..parts.len() - 1] {
-                acc.push_str(p);
-                acc.push('/');
-                if !dirs.contains(&acc) {
-                    dirs.push(acc.clone());
-                }
+/// The zip archive of `entries` (folders added for every path), in memory: the FMU's bytes,
+/// which [`build_fmus`] writes through the one output path (`zmp_files`).
+pub fn zip_bytes(entries: &[(String, Vec<u8>)]) -> Result<Vec<u8>, String> {
+    let mut zw = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    let opts = zip::write::SimpleFileOptions::default()
+        .compression_method(zip::CompressionMethod::Deflated)
+        .unix_permissions(0o644);
+    let mut dirs: Vec<String> = Vec::new();
+    for (name, _) in entries {
+        let mut acc = String::new();
+        let parts: Vec<&str> = name.split('/').collect();
+        for p in &parts[..parts.len() - 1] {
+            acc.push_str(p);
+            acc.push('/');
+            if !dirs.contains(&acc) {
+                dirs.push(acc.clone());
             }
         }
-        for d in &dirs {
-            zw.add_directory(d.as_str(), opts)
-                .map_err(|e| e.to_string())?;
-        }
-        for (name, data) in entries {
-            zw.start_file(name.as_str(), opts)
-                .map_err(|e| e.to_string())?;
-            zw.write_all(data).map_err(|e| e.to_string())?;
-        }
-        let file = zw.finish().map_err(|e| e.to_string())?;
-        file.sync_all().map_err(|e| format!("syncing: {e}"))?;
-        if overwrite {
-            std::fs::rename(&tmp, path).map_err(|e| e.to_string())
-        } else {
-            let linked = std::fs::hard_link(&tmp, path);
-            let _ = std::fs::remove_file(&tmp);
-            linked.map_err(|e| {
-                if e.kind() == std::io::ErrorKind::AlreadyExists {
-                    "exists; refusing to overwrite it (use --force)".to_string()
-                } else {
-                    e.to_string()
-                }
-            })
-        }
-    })();
-    result.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        format!("{}: {e}", path.display())
-    })
+    }
+    for d in &dirs {
+        zw.add_directory(d.as_str(), opts)
+            .map_err(|e| e.to_string())?;
+    }
+    for (name, data) in entries {
+        zw.start_file(name.as_str(), opts)
+            .map_err(|e| e.to_string())?;
+        zw.write_all(data).map_err(|e| e.to_string())?;
+    }
+    Ok(zw.finish().map_err(|e| e.to_string())?.into_inner())
 }
 
 /// Display name of the model: its `name`, else the file stem.
@@ -275,23 +245,27 @@ pub fn build_fmus(model: &Path, out: &Path, opts: &BuildOptions) -> Result<Vec<P
         .canonicalize()
         .map_err(|e| format!("{}: {e}", model.display()))?;
     let model_toml =
-        std::fs::read_to_string(&model).map_err(|e| format!("{}: {e}", model.display()))?;
+        zmp_files::read_limited_text(&model, zmp_files::limits::MODEL_BYTES, "a model file")
+            .map_err(|e| e.to_string())?;
     let spec =
         ModelSpec::parse(&model_toml, &model.display().to_string()).map_err(|e| e.to_string())?;
     let name = model_name(&spec, &model);
     let targets = fmu_paths(out, opts);
-    if !opts.force {
-        let existing: Vec<String> = targets
-            .iter()
-            .filter(|(_, _, p)| p.exists())
-            .map(|(_, _, p)| p.display().to_string())
-            .collect();
-        if !existing.is_empty() {
-            return Err(format!(
-                "refusing to overwrite {} (use --force)",
-                existing.join(", ")
-            ));
+    // Every destination is checked before the builds (and again when written): an existing
+    // file needs --force, and only an FMU is ever replaced.
+    let mut existing = Vec::new();
+    for (_, _, p) in &targets {
+        match zmp_files::check_file(p, zmp_files::Kind::Fmu, opts.force) {
+            Ok(()) => {}
+            Err(e) if e.is_exists() => existing.push(p.display().to_string()),
+            Err(e) => return Err(e.to_string()),
         }
+    }
+    if !existing.is_empty() {
+        return Err(format!(
+            "refusing to overwrite {} (use --force)",
+            existing.join(", ")
+        ));
     }
     let fmi2 = cargo_build("zmp-fmu", opts, &[])?;
     let fmi2_lib = fmi2
@@ -332,7 +306,13 @@ pub fn build_fmus(model: &Path, out: &Path, opts: &BuildOptions) -> Result<Vec<P
                 fmi3_entries(*kind, &model_toml, xml, &read(lib)?)
             }
         };
-        write_zip(path, &entries, opts.force)?;
+        zmp_files::write_file(
+            path,
+            zmp_files::Kind::Fmu,
+            &zip_bytes(&entries)?,
+            opts.force,
+        )
+        .map_err(|e| e.to_string())?;
         written.push(path.clone());
     }
     Ok(written)

@@ -17,6 +17,11 @@ use std::path::Path;
 /// The required columns, in the order they are written.
 pub const REQUIRED_COLUMNS: [&str; 5] = ["t", "x_cr", "y_cr", "zmp_x", "zmp_y"];
 
+/// Most cells a record's header may have (a little over a million; the five required columns
+/// and any extra ones): the header is read in time linear in its width, and each column costs
+/// memory, so a wider header is an error naming the file and the limit.
+pub const MAX_COLUMNS: usize = 1 << 20;
+
 /// Relative deviation of one time step from the median step (and of the CSV rate from
 /// `sample_rate_hz`) above which a record is rejected.
 pub const STEP_TOLERANCE: f64 = 0.01;
@@ -39,7 +44,7 @@ pub fn parse_record(
     sample_rate_hz: Option<f64>,
 ) -> Result<Record, CampaignError> {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
-    let mut parser = Parser::new(file, index, count_byte(bytes, b'\n') + 1);
+    let mut parser = Parser::new(file, index, count_byte(bytes, b'\n') + 1, bytes.len());
     if is_simple(bytes) {
         drive_simple(bytes, &mut parser)?;
     } else {
@@ -135,6 +140,7 @@ pub(crate) fn render_record(
         ("zmp_x", &record.zmp_x),
         ("zmp_y", &record.zmp_y),
     ];
+    let mut seen: std::collections::HashSet<&str> = REQUIRED_COLUMNS.into_iter().collect();
     for (j, (name, values)) in record.extra.iter().enumerate() {
         let bad = name.is_empty()
             || name.trim_ascii() != name
@@ -150,7 +156,7 @@ pub(crate) fn render_record(
                 ),
             ));
         }
-        if columns.iter().any(|(c, _)| c == name) {
+        if !seen.insert(name.as_str()) {
             return Err(err(Some(1), Some(name), "duplicate column name".to_owned()));
         }
         columns.push((name, values));

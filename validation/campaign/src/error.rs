@@ -61,6 +61,38 @@ pub enum CampaignError {
     AlreadyExists { path: PathBuf },
 }
 
+impl From<zmp_files::FileError> for CampaignError {
+    /// A refusal or failure of the one output path, as the campaign writer reports it.
+    fn from(e: zmp_files::FileError) -> CampaignError {
+        use zmp_files::FileError as F;
+        match e {
+            F::Exists { path } => CampaignError::AlreadyExists { path },
+            F::Io {
+                path,
+                action,
+                source,
+            } => CampaignError::Io {
+                path,
+                record: None,
+                action,
+                source,
+            },
+            other => CampaignError::invalid(
+                Part::Destination,
+                other.path(),
+                None,
+                None,
+                None,
+                other
+                    .to_string()
+                    .strip_prefix(&format!("{}: ", other.path().display()))
+                    .map(str::to_owned)
+                    .unwrap_or_else(|| other.to_string()),
+            ),
+        }
+    }
+}
+
 impl CampaignError {
     pub(crate) fn invalid(
         part: Part,

@@ -2,6 +2,16 @@
 //! beside the model files (`zmp-ledger.jsonl` in their folder), so that the history of a model
 //! (which effect was added when, and what it did to the error) can be shown as a waterfall.
 //!
+//! # Lineage by content
+//!
+//! Each entry records the SHA-256 of the model file as written (`hash`) and of the parent it
+//! was made from (`parent_hash`). [`history`] follows these hashes, not the file names: a
+//! parent rewritten with `--force`, or a second run into the same folder, has entries of its
+//! own with other hashes and never joins another run's chain; a version whose file no longer
+//! matches its entry is named. Entries written before content lineage (an FNV-1a `hash`, no
+//! `parent_hash`) still read: they are linked by name to the parent's latest entry before
+//! them, and the history says so.
+//!
 //! # Concurrency and damage
 //!
 //! Many runs may write models into one folder at once (a batch of `identify` runs, say). An
@@ -21,22 +31,28 @@
 
 use anyhow::{Context, Result};
 use serde::{Deserialize, Deserializer, Serialize};
-use std::fs::{File, OpenOptions};
-use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
+use zmp_files::{append_locked, limits, read_locked, Kind};
 
 /// File name of the ledger in a model's folder.
-pub const LEDGER_FILE: &str = "zmp-ledger.jsonl";
+pub const LEDGER_FILE: &str = zmp_files::LEDGER_FILE;
 
 /// One model version.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Entry {
     /// Model file name (relative to the ledger's folder).
     pub model: String,
-    /// Hash of the model file's contents when written (FNV-1a, hex).
+    /// Hash of the model file's contents when written: SHA-256, 64 hex digits (entries written
+    /// before content lineage hold FNV-1a 64, 16 hex digits; an entry without one, "").
+    #[serde(default)]
     pub hash: String,
     /// The model this one was made from (file name in the same folder), if any.
     pub parent: Option<String>,
+    /// SHA-256 of the parent's contents when this version was made from it: the history
+    /// follows this, not the parent's name (`None`: no parent, or an entry written before
+    /// content lineage, linked by name only).
+    #[serde(default)]
+    pub parent_hash: Option<String>,
     /// What made it: `identified`, `+time_delay`, `refit`.
     pub change: String,
     /// Campaign the error is measured on, as given.
@@ -69,20 +85,38 @@ pub struct Contents {
 pub struct History {
     /// The versions leading to the model, oldest first.
     pub chain: Vec<Entry>,
-    /// The model file no longer matches its entry's hash.
+    /// The model file no longer matches any of its entries' hashes.
     pub edited: bool,
     /// Damaged ledger lines that were skipped.
     pub warnings: Vec<String>,
+    /// What the reader should know about the chain: a version's file rewritten or gone since,
+    /// entries from before content hashes linked by name, a parent without an entry.
+    pub notes: Vec<String>,
 }
 
-/// FNV-1a 64 of `bytes`, hex.
+/// SHA-256 of `bytes`, hex: the hash new entries record.
 pub fn content_hash(bytes: &[u8]) -> String {
+    zmp_files::sha256_hex(bytes)
+}
+
+/// FNV-1a 64 of `bytes`, hex: the hash of entries written before content lineage.
+fn fnv_hash(bytes: &[u8]) -> String {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     for b in bytes {
         h ^= *b as u64;
         h = h.wrapping_mul(0x0000_0100_0000_01b3);
     }
     format!("{h:016x}")
+}
+
+/// Whether `bytes` are the contents an entry's `hash` was made of (`None`: the entry has no
+/// hash, so it cannot be told).
+pub fn hash_matches(hash: &str, bytes: &[u8]) -> Option<bool> {
+    match hash.len() {
+        64 => Some(content_hash(bytes) == hash),
+        16 => Some(fnv_hash(bytes) == hash),
+        _ => None,
+    }
 }
 
 /// The ledger file of the folder `model` is in.
@@ -133,68 +167,46 @@ fn parse(path: &Path, bytes: &[u8]) -> Contents {
 /// for each damaged line. Only an unreadable file is an error.
 pub fn read(model: &Path) -> Result<Contents> {
     let path = ledger_path(model);
-    let mut file = match File::open(&path) {
-        Ok(f) => f,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Contents::default()),
-        Err(e) => return Err(e).with_context(|| format!("{}: cannot open", path.display())),
-    };
     // A shared lock: a writer holding the exclusive one finishes its line first.
-    file.lock_shared()
-        .with_context(|| format!("{}: cannot lock for reading", path.display()))?;
-    let mut bytes = Vec::new();
-    file.read_to_end(&mut bytes)
-        .with_context(|| format!("{}: cannot read", path.display()))?;
-    Ok(parse(&path, &bytes))
+    match read_locked(&path, limits::LEDGER_BYTES)? {
+        None => Ok(Contents::default()),
+        Some(bytes) => Ok(parse(&path, &bytes)),
+    }
 }
 
 /// Appends `entry` to the ledger at `path` under an exclusive lock, in one write, synced.
 /// With `unless_recorded`, nothing is written when the ledger (read under the same lock)
-/// already has an entry for the same model; returns whether it wrote.
-fn append_locked(path: &Path, entry: &Entry, unless_recorded: bool) -> Result<bool> {
-    let mut file = OpenOptions::new()
-        .read(true)
-        .append(true)
-        .create(true)
-        .open(path)
-        .with_context(|| format!("{}: cannot open for appending", path.display()))?;
-    file.lock()
-        .with_context(|| format!("{}: cannot lock", path.display()))?;
-    let len = file
-        .metadata()
-        .with_context(|| format!("{}: cannot inspect", path.display()))?
-        .len();
-    if unless_recorded && len > 0 {
-        let mut bytes = Vec::new();
-        file.seek(SeekFrom::Start(0))
-            .and_then(|_| file.read_to_end(&mut bytes))
-            .with_context(|| format!("{}: cannot read", path.display()))?;
-        if parse(path, &bytes)
-            .entries
-            .iter()
-            .any(|e| e.model == entry.model)
+/// already has an entry for the same model with the same contents; returns whether it wrote.
+fn append_locked_entry(path: &Path, entry: &Entry, unless_recorded: bool) -> Result<bool> {
+    let json = serde_json::to_string(entry)?;
+    let wrote = append_locked(path, Kind::Ledger, limits::LEDGER_BYTES, |bytes| {
+        if unless_recorded
+            && parse(path, bytes)
+                .entries
+                .iter()
+                .any(|e| e.model == entry.model && e.hash == entry.hash)
         {
-            return Ok(false);
+            return None;
         }
-    }
-    let mut line = String::new();
-    if len > 0 {
+        let mut line = String::new();
         // A damaged (truncated) last line must not swallow the new entry.
-        let mut last = [0u8; 1];
-        file.seek(SeekFrom::End(-1))
-            .and_then(|_| file.read_exact(&mut last))
-            .with_context(|| format!("{}: cannot read", path.display()))?;
-        if last[0] != b'\n' {
+        if bytes.last().is_some_and(|b| *b != b'\n') {
             line.push('\n');
         }
-    }
-    line.push_str(&serde_json::to_string(entry)?);
-    line.push('\n');
-    // O_APPEND: the write goes to the end whatever the file position.
-    file.write_all(line.as_bytes())
-        .with_context(|| format!("{}: cannot append", path.display()))?;
-    file.sync_data()
-        .with_context(|| format!("{}: cannot sync", path.display()))?;
-    Ok(true)
+        line.push_str(&json);
+        line.push('\n');
+        Some(line.into_bytes())
+    })?;
+    Ok(wrote)
+}
+
+/// The contents of a model file as the ledger hashes them.
+fn model_bytes(model: &Path) -> Result<Vec<u8>> {
+    Ok(zmp_files::read_limited(
+        model,
+        limits::MODEL_BYTES,
+        "a model file",
+    )?)
 }
 
 fn new_entry(
@@ -205,12 +217,18 @@ fn new_entry(
     error: f64,
     noise_floor: f64,
 ) -> Result<Entry> {
-    let bytes =
-        std::fs::read(model).with_context(|| format!("{}: cannot read", model.display()))?;
+    let bytes = model_bytes(model).with_context(|| format!("{}: cannot read", model.display()))?;
+    let parent_hash = match parent {
+        Some(p) => Some(content_hash(
+            &model_bytes(p).with_context(|| format!("{}: cannot read", p.display()))?,
+        )),
+        None => None,
+    };
     Ok(Entry {
         model: file_name(model),
         hash: content_hash(&bytes),
         parent: parent.map(file_name),
+        parent_hash,
         change: change.to_string(),
         campaign: campaign.to_string(),
         error,
@@ -220,8 +238,9 @@ fn new_entry(
     })
 }
 
-/// Appends an entry for `model` (already written) to its folder's ledger. Safe to call from
-/// many processes at once; damaged lines already in the ledger do not stop it.
+/// Appends an entry for `model` (already written) to its folder's ledger, with the hash of
+/// its contents and of its parent's. Safe to call from many processes at once; damaged lines
+/// already in the ledger do not stop it.
 pub fn append(
     model: &Path,
     parent: Option<&Path>,
@@ -231,13 +250,13 @@ pub fn append(
     noise_floor: f64,
 ) -> Result<Entry> {
     let entry = new_entry(model, parent, change, campaign, error, noise_floor)?;
-    append_locked(&ledger_path(model), &entry, false)?;
+    append_locked_entry(&ledger_path(model), &entry, false)?;
     Ok(entry)
 }
 
-/// Appends an entry for `model` unless its ledger already has one (checked and written under
-/// one lock, so two runs starting from the same model record it once). Returns whether it
-/// wrote.
+/// Appends an entry for `model` unless its ledger already has one for these contents
+/// (checked and written under one lock, so two runs starting from the same model record it
+/// once; a model rewritten since gets an entry of its own). Returns whether it wrote.
 pub fn append_unless_recorded(
     model: &Path,
     change: &str,
@@ -246,19 +265,72 @@ pub fn append_unless_recorded(
     noise_floor: f64,
 ) -> Result<bool> {
     let entry = new_entry(model, None, change, campaign, error, noise_floor)?;
-    append_locked(&ledger_path(model), &entry, true)
+    append_locked_entry(&ledger_path(model), &entry, true)
 }
 
-/// The versions leading to `model`, oldest first: its latest entry and its parents'. The
-/// model file's current contents must match the entry's hash, or the history says so with
-/// `edited = true`. Damaged ledger lines are skipped and listed in `warnings`.
+/// The entry the parent of `all[child]` has: the latest entry before it with the parent's
+/// name and the recorded parent hash (by name alone for entries written before content
+/// lineage; a note says so once).
+fn parent_of(all: &[Entry], child: usize, notes: &mut Vec<String>) -> Option<usize> {
+    let c = &all[child];
+    let name = c.parent.as_deref()?;
+    let by_name_note = |notes: &mut Vec<String>| {
+        let note = "entries written before content hashes are linked to their parent, or \
+                    their child to them, by file name only (the parent's latest entry before \
+                    the child)"
+            .to_owned();
+        if !notes.contains(&note) {
+            notes.push(note);
+        }
+    };
+    match &c.parent_hash {
+        Some(h) => {
+            let exact = all[..child]
+                .iter()
+                .rposition(|e| e.model == name && &e.hash == h);
+            // A parent recorded before content hashes has no SHA-256 to compare: its latest
+            // such entry, by name.
+            let found = exact.or_else(|| {
+                let legacy = all[..child].iter().rposition(|e| e.model == name)?;
+                (all[legacy].hash.len() != 64).then(|| {
+                    by_name_note(notes);
+                    legacy
+                })
+            });
+            if found.is_none() {
+                notes.push(format!(
+                    "{} was made from {name} (contents {}), which has no ledger entry with \
+                     those contents: the history starts after it",
+                    c.model,
+                    short(h)
+                ));
+            }
+            found
+        }
+        None => {
+            by_name_note(notes);
+            all[..child].iter().rposition(|e| e.model == name)
+        }
+    }
+}
+
+fn short(hash: &str) -> &str {
+    &hash[..hash.len().min(12)]
+}
+
+/// The versions leading to `model`, oldest first, followed by content: the model's entry is
+/// the latest whose hash matches the file as it is (else its latest, and `edited` says the
+/// file no longer matches), each parent the entry with the hash the child recorded, written
+/// before the child. So a rerun into the same folder, or a parent rewritten with `--force`,
+/// never mixes into the chain; a version whose file was rewritten or removed since is named in
+/// `notes`. Damaged ledger lines are skipped and listed in `warnings`.
 pub fn history(model: &Path) -> Result<History> {
     let Contents {
         entries: all,
         warnings,
     } = read(model)?;
     let name = file_name(model);
-    let Some(last) = all.iter().rev().find(|e| e.model == name) else {
+    let Some(latest) = all.iter().rposition(|e| e.model == name) else {
         let mut msg = format!(
             "{}: no ledger entry for {name} (models get one when `cargo xtask identify` or \
              `cargo xtask augment` writes them)",
@@ -269,28 +341,50 @@ pub fn history(model: &Path) -> Result<History> {
         }
         anyhow::bail!(msg);
     };
-    let edited = std::fs::read(model)
-        .map(|b| content_hash(&b) != last.hash)
-        .unwrap_or(true);
-    let mut chain = vec![last.clone()];
-    let mut seen = vec![last.model.clone()];
-    while let Some(p) = chain.last().and_then(|e| e.parent.clone()) {
-        if seen.contains(&p) {
+    let mut notes = Vec::new();
+    let bytes = model_bytes(model).ok();
+    let matching = bytes.as_ref().and_then(|b| {
+        all.iter()
+            .rposition(|e| e.model == name && hash_matches(&e.hash, b) == Some(true))
+    });
+    let (last, edited) = match (matching, &bytes) {
+        (Some(k), _) => (k, false),
+        (None, Some(b)) if hash_matches(&all[latest].hash, b).is_none() => {
+            notes.push(format!(
+                "{name}'s entry has no content hash: whether the file still matches it cannot \
+                 be told"
+            ));
+            (latest, false)
+        }
+        _ => (latest, true),
+    };
+    let dir = model.parent().unwrap_or(Path::new(""));
+    let mut chain = vec![last];
+    while let Some(p) = parent_of(&all, *chain.last().expect("not empty"), &mut notes) {
+        if chain.contains(&p) {
             break;
         }
-        match all.iter().rev().find(|e| e.model == p) {
-            Some(e) => {
-                seen.push(p);
-                chain.push(e.clone());
-            }
-            None => break,
-        }
+        chain.push(p);
     }
     chain.reverse();
+    // The versions before the model: is each file still the one this chain recorded?
+    for &k in &chain[..chain.len() - 1] {
+        let e = &all[k];
+        match zmp_files::read_limited(&dir.join(&e.model), limits::MODEL_BYTES, "a model file") {
+            Err(_) => notes.push(format!("{} is no longer on disk", e.model)),
+            Ok(b) if hash_matches(&e.hash, &b) == Some(false) => notes.push(format!(
+                "{} on disk no longer matches the version in this history (rewritten since; \
+                 the version shown is its entry of {})",
+                e.model, e.date
+            )),
+            Ok(_) => {}
+        }
+    }
     Ok(History {
-        chain,
+        chain: chain.into_iter().map(|k| all[k].clone()).collect(),
         edited,
         warnings,
+        notes,
     })
 }
 

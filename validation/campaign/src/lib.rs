@@ -15,13 +15,19 @@ mod append;
 mod data;
 mod error;
 mod manifest;
+mod omega;
 mod write;
 
 pub use append::append_campaign;
-pub use data::{parse_record, REQUIRED_COLUMNS, STEP_TOLERANCE};
+pub use data::{parse_record, MAX_COLUMNS, REQUIRED_COLUMNS, STEP_TOLERANCE};
 pub use error::{CampaignError, Part};
 pub use manifest::parse_manifest;
+pub use omega::{dominant_line, windowed_dtft, LINE_SHARE, MIN_PERIODS, MIN_SAMPLES};
 pub use write::{check_destination, write_campaign};
+/// The size limits of a campaign's files (`campaign.toml`, a record) and of a record's header.
+pub use zmp_files::limits::{
+    MANIFEST_BYTES as MAX_MANIFEST_BYTES, RECORD_BYTES as MAX_RECORD_BYTES,
+};
 
 use std::path::{Path, PathBuf};
 use zmp_models::Axis;
@@ -155,7 +161,8 @@ impl Campaign {
 /// Reads `dir/campaign.toml` only (no CSV is opened).
 pub fn read_manifest(dir: &Path) -> Result<Manifest, CampaignError> {
     let path = dir.join(MANIFEST_FILE);
-    let bytes = std::fs::read(&path).map_err(|e| CampaignError::io(&path, None, "read", e))?;
+    let bytes = zmp_files::read_limited(&path, MAX_MANIFEST_BYTES, "campaign.toml")
+        .map_err(|e| read_error(e, Part::Manifest, &path, None))?;
     let text = std::str::from_utf8(&bytes).map_err(|e| {
         let at = e.valid_up_to();
         let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
@@ -169,6 +176,40 @@ pub fn read_manifest(dir: &Path) -> Result<Manifest, CampaignError> {
         )
     })?;
     parse_manifest(text, &path)
+}
+
+/// A failed bounded read of `path` as a campaign error: one too large names the limit, the
+/// rest is an I/O error.
+fn read_error(
+    e: zmp_files::FileError,
+    part: Part,
+    path: &Path,
+    record: Option<usize>,
+) -> CampaignError {
+    match e {
+        zmp_files::FileError::TooLarge { limit, .. } => CampaignError::invalid(
+            part,
+            path,
+            None,
+            record,
+            None,
+            format!(
+                "larger than {limit} bytes, the limit for {}",
+                if part == Part::Manifest {
+                    "campaign.toml"
+                } else {
+                    "a record"
+                }
+            ),
+        ),
+        zmp_files::FileError::Io { source, .. } => CampaignError::io(path, record, "read", source),
+        other => CampaignError::io(
+            path,
+            record,
+            "read",
+            std::io::Error::other(other.to_string()),
+        ),
+    }
 }
 
 /// Reads the CSV of record `index` (described by `meta`) of the campaign in `dir`.
@@ -207,17 +248,13 @@ pub fn read_record(
             Ok(buf) => buf,
             Err(_) => &mut own, // re-entered on this thread (not done today): a buffer of its own
         };
-        bytes.clear();
-        std::fs::File::open(&path)
-            .and_then(|mut f| {
-                use std::io::Read;
-                if let Ok(m) = f.metadata() {
-                    bytes.reserve(m.len() as usize + 1);
-                }
-                f.read_to_end(bytes)
-            })
-            .map_err(|e| CampaignError::io(&shown, Some(index), "read", e))?;
-        let record = parse_record(bytes, &shown, index, meta.clone(), sample_rate_hz);
+        zmp_files::read_limited_into(&path, MAX_RECORD_BYTES, "a record", bytes)
+            .map_err(|e| read_error(e, Part::Data, &shown, Some(index)))?;
+        let record =
+            parse_record(bytes, &shown, index, meta.clone(), sample_rate_hz).and_then(|r| {
+                omega::check_omega(&r, &dir.join(MANIFEST_FILE), &shown, index)?;
+                Ok(r)
+            });
         // A buffer grown for an unusually large file is not kept.
         if bytes.capacity() > 64 << 20 {
             *bytes = Vec::new();

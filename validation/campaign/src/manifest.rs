@@ -2,6 +2,7 @@
 
 use super::error::{CampaignError, Part};
 use super::{Campaign, Manifest, RecordMeta, FORMAT};
+use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use toml::Value;
@@ -97,6 +98,8 @@ pub fn parse_manifest(text: &str, file: &Path) -> Result<Manifest, CampaignError
     }
 
     let mut metas = Vec::with_capacity(records.len());
+    // Each record's file, normalised: a record listed twice would be counted twice.
+    let mut files: HashMap<PathBuf, usize> = HashMap::with_capacity(records.len());
     for (i, value) in records.iter().enumerate() {
         let Value::Table(rec) = value else {
             return Err(CampaignError::invalid(
@@ -127,7 +130,16 @@ pub fn parse_manifest(text: &str, file: &Path) -> Result<Manifest, CampaignError
                 ),
             ));
         };
-        check_relative_path(file_str).map_err(|m| err("file", m))?;
+        let normalised = check_relative_path(file_str).map_err(|m| err("file", m))?;
+        if let Some(j) = files.insert(normalised, i) {
+            return Err(err(
+                "file",
+                format!(
+                    "{file_str:?} is also the file of records[{j}]: a record listed twice would \
+                     be counted twice (its data would weigh double in every fit)"
+                ),
+            ));
+        }
 
         let excited_value = required("excited")?;
         let excited = match excited_value {

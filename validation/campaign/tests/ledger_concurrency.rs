@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use zmp_campaign::ledger;
-use zmp_files::atomic_write;
+use zmp_files::{write_file, Kind};
 
 const WRITERS: usize = 16;
 /// Entries each writer appends besides its model's own.
@@ -36,7 +36,13 @@ fn ledger_writer() {
         return;
     };
     let model = dir.join(format!("model{k:02}.toml"));
-    atomic_write(&model, format!("name = \"model {k}\"\n").as_bytes(), false).unwrap();
+    write_file(
+        &model,
+        Kind::Model,
+        format!("name = \"model {k}\"\n").as_bytes(),
+        false,
+    )
+    .unwrap();
     ledger::append(&model, None, "identified", "campaign", 0.1 * k as f64, 0.01).unwrap();
     for j in 0..EXTRA {
         ledger::append(&model, None, &format!("refit {j}"), "campaign", 0.1, 0.01).unwrap();
@@ -90,8 +96,8 @@ fn clobber_writer() {
     // Both writers pass any "does it exist" look before either renames: the race the
     // no-clobber rename must settle.
     let bytes = vec![b'a' + k as u8; 1 << 20];
-    match atomic_write(&path, &bytes, false) {
-        Ok(()) => std::fs::write(dir.join(format!("won{k}")), "").unwrap(),
+    match write_file(&path, Kind::Model, &bytes, false) {
+        Ok(_) => std::fs::write(dir.join(format!("won{k}")), "").unwrap(),
         Err(e) => std::fs::write(dir.join(format!("lost{k}")), format!("{e:#}")).unwrap(),
     }
 }

@@ -35,8 +35,7 @@ fn locate(text: &str, tag: &str, path: &Path) -> Result<(usize, usize), String> 
 
 /// The text between `tag`'s markers in the file at `path`.
 pub fn read_section(path: &Path, tag: &str) -> Result<String, String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    let text = read_page(path)?;
     let (a, b) = locate(&text, tag, path)?;
     Ok(text[a..b].to_string())
 }
@@ -45,13 +44,19 @@ pub fn read_section(path: &Path, tag: &str) -> Result<String, String> {
 /// (an error names the file and the missing marker, and nothing is written). Written to a
 /// temporary file beside it and renamed into place.
 pub fn replace_sections(path: &Path, sections: &[(&str, String)]) -> Result<(), String> {
-    let mut text = std::fs::read_to_string(path)
-        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    let mut text = read_page(path)?;
     for (tag, body) in sections {
         let (a, b) = locate(&text, tag, path)?;
         text = format!("{}{body}{}", &text[..a], &text[b..]);
     }
-    crate::atomic_write(path, text.as_bytes(), true).map_err(|e| format!("{e:#}"))
+    crate::write_file(path, crate::Kind::Markdown, text.as_bytes(), true)
+        .map(|_| ())
+        .map_err(|e| e.to_string())
+}
+
+/// The page at `path`, read within the limit of a text input.
+fn read_page(path: &Path) -> Result<String, String> {
+    crate::read_limited_text(path, crate::limits::MODEL_BYTES, "a page").map_err(|e| e.to_string())
 }
 
 /// What a test calls with the section it measured: with [`UPDATE_VAR`]` = 1` the section is

@@ -36,7 +36,7 @@ mod noise;
 mod pendulum;
 mod record_analysis;
 mod saturation_limit;
-mod sine;
+pub(crate) mod sine;
 mod steady;
 mod uncertainty;
 
@@ -238,6 +238,9 @@ pub mod reason {
     pub const CONSTANT_OUTPUT: &str = "constant output (ZMP sensor dead or disconnected?)";
     pub const WRONG_FREQUENCY: &str = "the excitation is not at the frequency campaign.toml gives";
     pub const BAD_DATA: &str = "the harmonic fit failed (non-finite or degenerate data)";
+    /// Past the time limit of the work identification serves (`par::with_deadline`, the
+    /// loop's `--time-limit`), the records not yet analysed are left out.
+    pub const TIME_LIMIT: &str = "not analysed: the time limit passed before its turn";
     pub const SATURATED: &str =
         "acceleration saturation (first-harmonic gain off the linear model, odd harmonics)";
 }

@@ -167,13 +167,20 @@ pub(super) fn build_model(
     Ok(spec)
 }
 
-/// Writes the model file atomically; an existing file needs `force`.
+/// Writes the model file through the one output path (`zmp_files`, kind model): atomically;
+/// an existing file needs `force`, and only a model file is ever replaced. Returns where the
+/// bytes went and whether that is a special file (no ledger entry then).
 pub fn write_model(
     ident: &Identification,
     path: &std::path::Path,
     force: bool,
-) -> anyhow::Result<()> {
-    zmp_files::atomic_write(path, ident.model.to_toml().as_bytes(), force)
+) -> anyhow::Result<zmp_files::Written> {
+    Ok(zmp_files::write_file(
+        path,
+        zmp_files::Kind::Model,
+        ident.model.to_toml().as_bytes(),
+        force,
+    )?)
 }
 
 /// A JSON summary: parameters with standard errors, excluded records, warnings.

@@ -204,12 +204,22 @@ pub fn analyse_records(
 ) -> Vec<RecordFit> {
     let done = AtomicUsize::new(0);
     let mut fits = parallel_map(campaign.records.len(), worker_count(opts), |k| {
-        let fit = analyse_record(&campaign.records[k], k, opts);
+        let fit = analyse_in_time(&campaign.records[k], k, opts);
         progress(done.fetch_add(1, Ordering::Relaxed) + 1);
         fit
     });
     pool_colour(&mut fits, opts.relative_floor);
     fits
+}
+
+/// [`analyse_record`] unless the time limit of the work it serves has passed
+/// ([`zmp_campaign::par::past_deadline`], checked before each record): then the record is left out
+/// ([`reason::TIME_LIMIT`]), so that identification inside `loop --time-limit` ends in time.
+fn analyse_in_time(rec: &Record, index: usize, opts: &IdentifyOptions) -> RecordFit {
+    if zmp_campaign::par::past_deadline() {
+        return excluded(rec, index, reason::TIME_LIMIT);
+    }
+    analyse_record(rec, index, opts)
 }
 
 /// [`analyse_records`] straight from the campaign folder `dir` (whose manifest is
@@ -225,7 +235,7 @@ pub fn analyse_folder(
 ) -> Result<Vec<RecordFit>, zmp_campaign::CampaignError> {
     let done = AtomicUsize::new(0);
     let mut fits = zmp_campaign::map_records(dir, manifest, worker_count(opts), |k, record| {
-        let fit = analyse_record(&record, k, opts);
+        let fit = analyse_in_time(&record, k, opts);
         progress(done.fetch_add(1, Ordering::Relaxed) + 1);
         fit
     })?;

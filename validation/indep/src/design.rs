@@ -281,8 +281,7 @@ impl Design {
     /// Reads a design from a TOML file; errors name the file (and, from the TOML parser, the
     /// line and key).
     pub fn from_toml_file(path: &Path) -> anyhow::Result<Self> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", path.display()))?;
+        let text = zmp_files::read_limited_text(path, zmp_files::limits::MODEL_BYTES, "a design")?;
         let d: Design =
             toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         d.validate()

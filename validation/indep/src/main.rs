@@ -94,14 +94,13 @@ fn run(cli: Cli) -> Result<()> {
         },
     };
     if let Some(truth) = &cli.truth {
-        if truth.exists() && !cli.force {
-            anyhow::bail!(
-                "{}: already exists; pass --force to replace it",
-                truth.display()
-            );
-        }
+        // Checked before the simulation: a file needs --force, and only a truth file of
+        // this tool is replaced (the one output path refuses any other kind of file).
+        zmp_files::check_file(truth, zmp_files::Kind::Json, cli.force)?;
         if truth.exists() {
-            let text = std::fs::read_to_string(truth).unwrap_or_default();
+            let text =
+                zmp_files::read_limited_text(truth, zmp_files::limits::MODEL_BYTES, "a truth file")
+                    .unwrap_or_default();
             if zmp_indep_sim::Robot::from_json(&text).is_err() {
                 anyhow::bail!(
                     "{}: exists and is not a truth file of zmp-indep-sim; refusing to replace it even with --force",

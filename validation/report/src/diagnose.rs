@@ -274,7 +274,7 @@ pub fn write_compare_report(
     dir: &Path,
     force: bool,
 ) -> Result<PathBuf> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    zmp_files::claim_dir(dir, zmp_files::Kind::Report, true)?;
     let scores: Vec<_> = obs.iter().zip(preds).map(|(o, p)| score(o, p)).collect();
     let (e, f) = aggregate(&scores);
     let mut h = String::new();
@@ -310,7 +310,7 @@ pub fn write_compare_report(
     h.push_str(&model_figures(campaign, obs, preds, "", records, &out)?);
     h.push_str("<p>Next: <code>cargo xtask diagnose</code> names the physical effect that is missing.</p></body></html>\n");
     let html = dir.join("compare.html");
-    zmp_files::atomic_write(&html, h.as_bytes(), force)?;
+    zmp_files::write_file(&html, zmp_files::Kind::Html, h.as_bytes(), force)?;
     Ok(html)
 }
 
@@ -321,7 +321,7 @@ pub fn write_diagnosis_report(
     dir: &Path,
     force: bool,
 ) -> Result<PathBuf> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    zmp_files::claim_dir(dir, zmp_files::Kind::Report, true)?;
     let obs: Vec<&Observation> = d.observations.iter().collect();
     let f = d.noise_floor;
     let mut h = String::new();
@@ -422,6 +422,6 @@ pub fn write_diagnosis_report(
     h.push_str(&model_figures(campaign, &obs, preds, model, &[], &out)?);
     h.push_str("</body></html>\n");
     let html = dir.join("diagnosis.html");
-    zmp_files::atomic_write(&html, h.as_bytes(), force)?;
+    zmp_files::write_file(&html, zmp_files::Kind::Html, h.as_bytes(), force)?;
     Ok(html)
 }

@@ -6,7 +6,7 @@
 
 use crate::html::{esc, STYLE};
 use crate::plot::{bode_svg, Band, BodePanel, BodeSeries, PALETTE};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use num_complex::Complex64;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -288,7 +288,9 @@ fn record_tables(ident: &Identification) -> String {
 
 /// Writes the report into `dir` (created if needed; existing files need `force`).
 pub fn write_report(ident: &Identification, dir: &Path, force: bool) -> Result<ReportFiles> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    // A report folder (missing, empty or an earlier report; never a folder the tool did not
+    // write); each file in it needs `force` to be replaced.
+    zmp_files::claim_dir(dir, zmp_files::Kind::Report, true)?;
     let mut bode = Vec::new();
     let mut panels = Vec::new();
     for ch in Channel::ALL {
@@ -343,7 +345,7 @@ pub fn write_report(ident: &Identification, dir: &Path, force: bool) -> Result<R
     h.push_str(&record_tables(ident));
     h.push_str("</body></html>\n");
     let html = dir.join("report.html");
-    zmp_files::atomic_write(&html, h.as_bytes(), force)?;
+    zmp_files::write_file(&html, zmp_files::Kind::Html, h.as_bytes(), force)?;
     Ok(ReportFiles {
         html,
         bode,

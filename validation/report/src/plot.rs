@@ -8,7 +8,6 @@ use num_complex::Complex64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
-use zmp_files::atomic_write;
 
 mod bars;
 mod legend;
@@ -359,7 +358,14 @@ pub fn bode_svg(path: &Path, panels: &[BodePanel], cols: usize, overwrite: bool)
         }
         root.present().map_err(e)?;
     }
-    atomic_write(path, svg.as_bytes(), overwrite)
+    write_svg(path, &svg, overwrite)
+}
+
+/// Writes a plot through the one output path (`zmp_files`): an existing file needs
+/// `overwrite`, and only an SVG is ever replaced.
+fn write_svg(path: &Path, svg: &str, overwrite: bool) -> Result<()> {
+    zmp_files::write_file(path, zmp_files::Kind::Svg, svg.as_bytes(), overwrite)?;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -31,7 +31,12 @@ fn main() -> anyhow::Result<()> {
     write_campaign(&robot, &design, &camp_dir, true)?;
     if let Some(keep) = args.get(2) {
         write_campaign(&robot, &design, std::path::Path::new(keep), true)?;
-        std::fs::write(format!("{keep}.truth.json"), robot.to_json())?;
+        zmp_files::write_file(
+            std::path::Path::new(&format!("{keep}.truth.json")),
+            zmp_files::Kind::Json,
+            robot.to_json().as_bytes(),
+            true,
+        )?;
     }
     let camp = read_campaign(&camp_dir)?;
     // As the blind suites run a draw (one thread, their time limit) when

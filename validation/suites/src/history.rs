@@ -205,7 +205,8 @@ pub fn render(rows: &[RangeRow]) -> String {
 /// a held-out range is run once.
 pub fn append(row: &RangeRow) -> Result<(), String> {
     let path = record_path();
-    let text = std::fs::read_to_string(&path).map_err(|e| format!("{RECORD}: {e}"))?;
+    let text = zmp_files::read_limited_text(&path, zmp_files::limits::MODEL_BYTES, "a record")
+        .map_err(|e| format!("{RECORD}: {e}"))?;
     if parse(&text)?.iter().any(|r| r.range == row.range) {
         return Err(format!("{RECORD}: range {} is recorded already", row.range));
     }
@@ -215,7 +216,9 @@ pub fn append(row: &RangeRow) -> Result<(), String> {
     }
     text.push_str(&line(row));
     text.push('\n');
-    zmp_files::atomic_write(&path, text.as_bytes(), true).map_err(|e| format!("{e:#}"))
+    zmp_files::write_file(&path, zmp_files::Kind::HeldOutRanges, text.as_bytes(), true)
+        .map(|_| ())
+        .map_err(|e| e.to_string())
 }
 
 #[cfg(test)]

@@ -7,7 +7,6 @@ use anyhow::{anyhow, bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::Path;
 use std::process::{Command, Stdio};
 
@@ -87,7 +86,7 @@ pub fn record(measured: &[Measured], wall: &WallResults) -> Result<()> {
         .with_context(|| format!("reading {}", readme.display()))?;
     let new = replace_table(&text, &latest_table(&entry))
         .with_context(|| format!("{}: the generated table", readme.display()))?;
-    zmp_files::atomic_write(&readme, new.as_bytes(), true)?;
+    zmp_files::write_file(&readme, zmp_files::Kind::Markdown, new.as_bytes(), true)?;
     eprintln!(
         "bench: appended to {}, trends in {}, table in {}",
         path.display(),
@@ -97,15 +96,17 @@ pub fn record(measured: &[Measured], wall: &WallResults) -> Result<()> {
     Ok(())
 }
 
-/// Appends one line; concurrent runs each add a whole line (`O_APPEND`, one write).
+/// Appends one line through the one output path: concurrent runs each add a whole line
+/// (under a lock, one write, synced), and only to a bench history.
 fn append_line(path: &Path, line: &str) -> Result<()> {
-    let mut f = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(path)
-        .with_context(|| format!("opening {}", path.display()))?;
-    f.write_all(format!("{line}\n").as_bytes())
-        .with_context(|| format!("appending to {}", path.display()))
+    zmp_files::append_locked(
+        path,
+        zmp_files::Kind::BenchHistory,
+        zmp_files::limits::LEDGER_BYTES,
+        |_| Some(format!("{line}\n").into_bytes()),
+    )
+    .with_context(|| format!("appending to {}", path.display()))?;
+    Ok(())
 }
 
 pub fn read_history(path: &Path) -> Result<Vec<Entry>> {

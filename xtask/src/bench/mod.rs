@@ -135,7 +135,12 @@ pub fn counts_and_gate(args: &BenchArgs) -> Result<CountOutcome> {
             fingerprint,
             benches: kept,
         };
-        zmp_files::atomic_write(&baseline_path, baseline.to_toml()?.as_bytes(), true)?;
+        zmp_files::write_file(
+            &baseline_path,
+            zmp_files::Kind::Baseline,
+            baseline.to_toml()?.as_bytes(),
+            true,
+        )?;
         eprintln!("bench: wrote {}", baseline_path.display());
         return Ok(CountOutcome {
             measured,

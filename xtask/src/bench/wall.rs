@@ -106,7 +106,8 @@ pub fn run() -> Result<WallResults> {
     let work = target_dir().join("bench-wall");
     std::fs::create_dir_all(&work).with_context(|| format!("creating {}", work.display()))?;
     let results = work.join("peers.jsonl");
-    std::fs::write(&results, "").with_context(|| format!("clearing {}", results.display()))?;
+    zmp_files::write_file(&results, zmp_files::Kind::BenchHistory, b"", true)
+        .with_context(|| format!("clearing {}", results.display()))?;
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let mut cmd = Command::new(cargo);
     cmd.current_dir(repo_root())

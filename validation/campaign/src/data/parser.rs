@@ -3,8 +3,9 @@
 
 use super::number::{fast_f64_prefix, parse_cell};
 use super::rows::Cells;
-use super::{check_time, REQUIRED_COLUMNS};
+use super::{check_time, MAX_COLUMNS, REQUIRED_COLUMNS};
 use crate::{CampaignError, Part, Record, RecordMeta};
+use std::collections::HashMap;
 use std::path::Path;
 
 #[derive(Clone, Copy)]
@@ -63,7 +64,10 @@ fn cell_len(rest: &[u8]) -> usize {
 pub(super) struct Parser<'a> {
     file: &'a Path,
     index: usize,
+    /// Lines in the file: no more rows than that.
     capacity: usize,
+    /// Bytes in the file: a row of `n` cells takes at least `n` of them.
+    bytes: usize,
     /// `None` until the header has been read.
     pub(super) header_line: Option<usize>,
     slots: Vec<Slot>,
@@ -76,11 +80,12 @@ pub(super) struct Parser<'a> {
 }
 
 impl<'a> Parser<'a> {
-    pub(super) fn new(file: &'a Path, index: usize, capacity: usize) -> Parser<'a> {
+    pub(super) fn new(file: &'a Path, index: usize, capacity: usize, bytes: usize) -> Parser<'a> {
         Parser {
             file,
             index,
             capacity,
+            bytes,
             header_line: None,
             slots: Vec::new(),
             names: Vec::new(),
@@ -122,8 +127,21 @@ impl<'a> Parser<'a> {
         self.header_line = Some(line);
         self.last_line = line;
         self.lines = LineMap::new(line + 1);
+        let width = cells.count();
+        if width > MAX_COLUMNS {
+            return Err(self.err(
+                Some(line),
+                None,
+                format!(
+                    "the header has {width} cells, more than the limit of {MAX_COLUMNS} columns \
+                     a record may have"
+                ),
+            ));
+        }
         let mut required = [false; 5];
-        for j in 0..cells.count() {
+        // Each name's first cell: duplicates are found in time linear in the width.
+        let mut first: HashMap<&str, usize> = HashMap::with_capacity(width);
+        for j in 0..width {
             let raw = cells.cell(j);
             let name = std::str::from_utf8(raw.trim_ascii()).map_err(|_| {
                 self.err(
@@ -141,7 +159,7 @@ impl<'a> Parser<'a> {
                 self.names.push(String::new());
                 continue;
             }
-            if let Some(k) = self.names.iter().position(|n| n == name) {
+            if let Some(&k) = first.get(name) {
                 return Err(self.err(
                     Some(line),
                     Some(name),
@@ -152,6 +170,7 @@ impl<'a> Parser<'a> {
                     ),
                 ));
             }
+            first.insert(name, j);
             self.names.push(name.to_owned());
             match REQUIRED_COLUMNS.iter().position(|c| *c == name) {
                 Some(k) => {
@@ -178,11 +197,27 @@ impl<'a> Parser<'a> {
                 ),
             ));
         }
-        for col in &mut self.cols {
-            col.reserve_exact(self.capacity);
-        }
-        for extra in &mut self.extras {
-            extra.values.reserve_exact(self.capacity);
+        // Room for every row the file can hold, reserved once (pushes never reallocate) and
+        // fallibly (a crafted file under a memory limit is an error, not an abort): no more
+        // rows than lines, and no more than the file's bytes over the header's width (a row
+        // of n cells has n - 1 commas and a line end). The whole is at most one value per
+        // byte of the file.
+        let rows = self.capacity.min(self.bytes / width.max(1) + 1);
+        let cols = self
+            .cols
+            .iter_mut()
+            .chain(self.extras.iter_mut().map(|e| &mut e.values));
+        for col in cols {
+            if let Err(e) = col.try_reserve_exact(rows) {
+                return Err(CampaignError::invalid(
+                    Part::Data,
+                    self.file,
+                    Some(line),
+                    Some(self.index),
+                    None,
+                    format!("cannot reserve memory for {rows} rows of {width} columns: {e}"),
+                ));
+            }
         }
         Ok(())
     }
@@ -322,14 +357,14 @@ impl<'a> Parser<'a> {
                         col.push(v);
                         p += len;
                     }
-                    None => return self.undo_row(),
+                    None => return self.undo_row(j),
                 },
                 None => p += cell_len(&bytes[p..]),
             }
             // The cell must end here: with a comma before the last cell, with the line after it.
             if j < last {
                 if bytes.get(p) != Some(&b',') {
-                    return self.undo_row();
+                    return self.undo_row(j + 1);
                 }
                 p += 1;
             }
@@ -338,7 +373,7 @@ impl<'a> Parser<'a> {
             None => p,
             Some(b'\n') => p + 1,
             Some(b'\r') if bytes.get(p + 1) == Some(&b'\n') => p + 2,
-            _ => return self.undo_row(),
+            _ => return self.undo_row(self.slots.len()),
         };
         self.last_line = line;
         self.lines.push(self.n, line);
@@ -346,14 +381,17 @@ impl<'a> Parser<'a> {
         Some(next)
     }
 
-    /// Drops the values a failed [`Parser::fast_row`] pushed.
+    /// Drops the values a failed [`Parser::fast_row`] pushed into the first `slots` cells'
+    /// columns (only those: a row given up at its first cell costs nothing however wide the
+    /// header, so blank lines under a wide header are read in linear time).
     #[cold]
-    fn undo_row(&mut self) -> Option<usize> {
-        for col in &mut self.cols {
-            col.truncate(self.n);
-        }
-        for extra in self.extras.iter_mut().filter(|e| e.numeric) {
-            extra.values.truncate(self.n);
+    fn undo_row(&mut self, slots: usize) -> Option<usize> {
+        for slot in &self.slots[..slots] {
+            match *slot {
+                Slot::Required(k) => self.cols[k].truncate(self.n),
+                Slot::Extra(e) => self.extras[e].values.truncate(self.n),
+                Slot::Ignored => {}
+            }
         }
         None
     }

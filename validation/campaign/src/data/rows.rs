@@ -161,7 +161,7 @@ mod tests {
 
     fn both_drivers(bytes: &[u8]) -> [Result<Record, CampaignError>; 2] {
         let run = |simple: bool| {
-            let mut p = Parser::new(Path::new("f.csv"), 0, 4);
+            let mut p = Parser::new(Path::new("f.csv"), 0, 4, bytes.len());
             let driven = if simple {
                 drive_simple(bytes, &mut p)
             } else {

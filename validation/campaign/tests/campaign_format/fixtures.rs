@@ -258,6 +258,7 @@ pub(crate) fn leftovers(parent: &Path) -> Vec<String> {
     fs::read_dir(parent)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n.starts_with(".campaign-"))
+        // Temporary entries: `.NAME.zmp-tmp-PID-N` (and the older `.campaign-*`).
+        .filter(|n| n.starts_with(".campaign-") || n.contains(".zmp-tmp-"))
         .collect()
 }

@@ -3,9 +3,9 @@
 
 #![allow(clippy::needless_range_loop)]
 
-use super::RESYNC;
 use num_complex::Complex64;
 use std::f64::consts::PI;
+use zmp_campaign::windowed_dtft;
 
 /// First estimate: Hann window, then the DFT bin nearest `omega` of the input zero-padded to a
 /// power of two; returns the phasor of each signal (amplitude corrected for the window's
@@ -58,62 +58,4 @@ pub(crate) fn fft_estimate<const S: usize>(
         out[j] = Complex64::new(0.0, 1.0) * x / gain;
     }
     (out, w_est)
-}
-
-/// `sum_k y_k w_k e^{-i alpha k}` for each `alpha`, with the Hann window
-/// `w_k = 1/2 - cos(beta k)/2`; rotations by recurrence, resynchronised every [`RESYNC`].
-fn windowed_dtft<const B: usize>(y: &[f64], alphas: &[f64; B], beta: f64) -> [Complex64; B] {
-    let step = |a: f64| {
-        let (s, c) = a.sin_cos();
-        Complex64::new(c, -s)
-    };
-    let rot: [Complex64; B] = std::array::from_fn(|b| step(alphas[b]));
-    let rot_w = step(-beta);
-    let mut z = [Complex64::new(1.0, 0.0); B];
-    let mut zw = Complex64::new(1.0, 0.0);
-    let mut acc = [Complex64::new(0.0, 0.0); B];
-    for (k, &yk) in y.iter().enumerate() {
-        if k % RESYNC == 0 {
-            for b in 0..B {
-                z[b] = step(alphas[b] * k as f64);
-            }
-            zw = step(-beta * k as f64);
-        }
-        let yw = yk * (0.5 - 0.5 * zw.re);
-        for b in 0..B {
-            acc[b] += z[b] * yw;
-            z[b] *= rot[b];
-        }
-        zw *= rot_w;
-    }
-    acc
-}
-
-#[cfg(test)]
-mod tests {
-    use super::super::tests::signal;
-    use super::*;
-
-    #[test]
-    fn windowed_dtft_matches_direct_sum() {
-        let n = 3001;
-        let y = signal(n, 1.9, 0.005, 0.7);
-        let beta = 2.0 * PI / n as f64;
-        let alphas = [0.0095, 0.0123, 0.5];
-        let got = windowed_dtft(&y, &alphas, beta);
-        for (b, &alpha) in alphas.iter().enumerate() {
-            let want: Complex64 = y
-                .iter()
-                .enumerate()
-                .map(|(k, &v)| {
-                    let w = 0.5 - 0.5 * (beta * k as f64).cos();
-                    v * w * Complex64::from_polar(1.0, -alpha * k as f64)
-                })
-                .sum();
-            assert!(
-                (got[b] - want).norm() < 1e-9 * want.norm().max(1.0),
-                "{alpha}"
-            );
-        }
-    }
 }

@@ -2,13 +2,12 @@
 //! optional reference line labelled at its end.
 
 use super::legend::{self, text_width, Item, Mark};
-use super::{e, DESC, LABEL, PALETTE, TITLE};
+use super::{e, write_svg, DESC, LABEL, PALETTE, TITLE};
 use anyhow::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
-use zmp_files::atomic_write;
 
 /// Width of the y label area, px (the key starts there too).
 const LEFT: i32 = 92;
@@ -148,5 +147,5 @@ pub fn bars_svg(
         }
         root.present().map_err(e)?;
     }
-    atomic_write(path, svg.as_bytes(), overwrite)
+    write_svg(path, &svg, overwrite)
 }

@@ -2,7 +2,7 @@
 //! frequency on a logarithmic axis ([`frequency_svg`]).
 
 use super::legend;
-use super::{draw_curve, e, finite_range, pad, Style, DESC, LABEL, TITLE};
+use super::{draw_curve, e, finite_range, pad, write_svg, Style, DESC, LABEL, TITLE};
 use anyhow::Result;
 use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::types::RangedCoordf64;
@@ -10,7 +10,6 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
-use zmp_files::atomic_write;
 
 /// One curve of a time plot.
 #[derive(Debug, Clone)]
@@ -119,7 +118,7 @@ fn panels_svg(path: &Path, panels: &[TimePanel], log_x: bool, overwrite: bool) -
         }
         root.present().map_err(e)?;
     }
-    atomic_write(path, svg.as_bytes(), overwrite)
+    write_svg(path, &svg, overwrite)
 }
 
 /// The mesh, markers and curves of one panel.

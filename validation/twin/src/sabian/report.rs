@@ -8,7 +8,7 @@ use super::tables::{calibration_table, walking_tables, xy_check_table};
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use zmp_files::atomic_write;
+use zmp_files::{check_file, write_file, Kind};
 
 /// Everything the report shows.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -80,30 +80,41 @@ pub const FILES: [&str; 8] = [
     "walk-torso-shift.svg",
 ];
 
-/// Fails if `out` holds one of our files and `force` is off (checked before the long run).
-pub fn check_out(out: &Path, force: bool) -> Result<()> {
-    if force {
-        return Ok(());
+/// The kind of each of [`FILES`].
+fn kind_of(file: &str) -> Kind {
+    if file.ends_with(".toml") {
+        Kind::Calibration
+    } else if file.ends_with(".html") {
+        Kind::Html
+    } else {
+        Kind::Svg
     }
+}
+
+/// Fails if `out` holds one of our files and `force` is off, or a file of another kind under
+/// one of their names (checked before the long run).
+pub fn check_out(out: &Path, force: bool) -> Result<()> {
     for f in FILES {
-        let p = out.join(f);
-        if p.exists() {
-            anyhow::bail!("{} exists; pass --force to overwrite it", p.display());
-        }
+        check_file(&out.join(f), kind_of(f), force)?;
     }
     Ok(())
 }
 
-/// Writes the TOML, the HTML and the figures into `out`; returns the files written.
+/// Writes the TOML, the HTML and the figures into `out` through the one output path; returns
+/// the files written.
 pub fn write(o: &Outcome, out: &Path, force: bool) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(out)?;
     let mut files = Vec::new();
     let toml_path = out.join("com-calibration.toml");
-    atomic_write(&toml_path, toml::to_string_pretty(o)?.as_bytes(), force)?;
+    write_file(
+        &toml_path,
+        Kind::Calibration,
+        toml::to_string_pretty(o)?.as_bytes(),
+        force,
+    )?;
     files.push(toml_path);
     files.extend(figures(o, out, force)?);
     let html_path = out.join("report.html");
-    atomic_write(&html_path, html(o, &files).as_bytes(), force)?;
+    write_file(&html_path, Kind::Html, html(o, &files).as_bytes(), force)?;
     files.push(html_path);
     Ok(files)
 }

@@ -422,7 +422,8 @@ pub fn write_html(
         );
     }
     h.push_str("</body></html>\n");
-    zmp_files::atomic_write(path, h.as_bytes(), false)
+    zmp_files::write_file(path, zmp_files::Kind::Html, h.as_bytes(), false)?;
+    Ok(())
 }
 
 /// The stance resonance swept on the model file and the verdict on the named mode.

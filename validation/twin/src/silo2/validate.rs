@@ -41,7 +41,7 @@ use zmp_models::Axis;
 /// `format` of `summary.json`.
 pub const FORMAT: &str = "zmp-twin-silo2/1";
 /// File that marks a folder as this command's output.
-pub const MARKER: &str = ".zmp-twin-silo2";
+pub const MARKER: &str = zmp_files::TWIN_SILO2_MARKER;
 
 /// When the frames of the disturbance experiment are taken, s.
 pub const FRAME_TIMES: [f64; 6] = [0.0, 20.0, 79.0, 82.0, 100.0, 160.0];
@@ -95,90 +95,37 @@ fn bar(quiet: bool, len: u64, what: &str) -> ProgressBar {
     pb
 }
 
-/// Decides what to do with an existing output folder; errors name the folder.
+/// Decides what to do with an existing output folder (the one output path's rule for a
+/// `validate silo2` folder: missing or empty, or an earlier validation with `force`; any other
+/// folder is refused, `force` or not); errors name the folder.
 pub fn check_destination(out: &Path, force: bool) -> Result<()> {
-    match std::fs::symlink_metadata(out) {
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
-        Err(e) => Err(e).with_context(|| format!("inspecting {}", out.display())),
-        Ok(meta) => {
-            if !meta.is_dir() || meta.file_type().is_symlink() {
-                bail!(
-                    "{} exists and is not a folder; refusing to replace it",
-                    out.display()
-                );
-            }
-            let empty = std::fs::read_dir(out)
-                .with_context(|| format!("reading {}", out.display()))?
-                .next()
-                .is_none();
-            if empty {
-                return Ok(());
-            }
-            if !out.join(MARKER).is_file() {
-                bail!(
-                    "{} exists and was not written by `validate silo2` (no {MARKER}); \
-                     refusing to replace it, even with --force",
-                    out.display()
-                );
-            }
-            if !force {
-                bail!(
-                    "{} holds an earlier validation; pass --force to replace it",
-                    out.display()
-                );
-            }
-            Ok(())
-        }
-    }
-}
-
-/// Renames the finished folder `tmp` to `out` (replacing an earlier run's output).
-fn move_into_place(tmp: tempfile::TempDir, out: &Path) -> Result<()> {
-    let parent = tmp.path().parent().unwrap_or(Path::new(".")).to_path_buf();
-    if out.exists() {
-        if std::fs::read_dir(out)?.next().is_none() {
-            std::fs::remove_dir(out).with_context(|| format!("replacing {}", out.display()))?;
-        } else {
-            let aside = tempfile::Builder::new()
-                .prefix(".twin-silo2-old")
-                .tempdir_in(&parent)
-                .with_context(|| format!("creating a folder in {}", parent.display()))?;
-            let old = aside.path().join("old");
-            std::fs::rename(out, &old)
-                .with_context(|| format!("moving {} aside", out.display()))?;
-            if let Err(e) = std::fs::rename(tmp.path(), out) {
-                let _ = std::fs::rename(&old, out);
-                return Err(e).with_context(|| format!("renaming into {}", out.display()));
-            }
-            let _ = tmp.keep();
-            let _ = aside.close();
-            return Ok(());
-        }
-    }
-    std::fs::rename(tmp.path(), out).with_context(|| format!("renaming into {}", out.display()))?;
-    let _ = tmp.keep();
+    zmp_files::check_dir(out, zmp_files::Kind::TwinSilo2, force)?;
     Ok(())
 }
 
 /// Runs the whole validation (see the module docs).
+///
+/// The folder is built aside and swapped into place whole by the one output path
+/// (`zmp_files::write_dir`): it is either complete or absent, an earlier validation is
+/// replaced only with `force`, and a killed run's half-built folder is removed by the next.
 pub fn validate(opts: &ValidateOptions) -> Result<Summary> {
     let started = Instant::now();
     check_destination(&opts.out, opts.force)?;
-    let parent = match opts.out.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&parent).with_context(|| format!("creating {}", parent.display()))?;
-    let tmp = tempfile::Builder::new()
-        .prefix(".twin-silo2-tmp")
-        .tempdir_in(&parent)
-        .with_context(|| format!("creating a temporary folder in {}", parent.display()))?;
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(tmp.path(), std::fs::Permissions::from_mode(0o755)).ok();
+    let (summary, _) = zmp_files::write_dir(
+        &opts.out,
+        zmp_files::Kind::TwinSilo2,
+        opts.force,
+        |staging| build(opts, staging.path(), started),
+    )?;
+    if !opts.quiet {
+        eprintln!("report -> {}", opts.out.join("report.html").display());
     }
-    let dir = tmp.path().to_path_buf();
+    Ok(summary)
+}
+
+/// Everything of the validation, written into `dir` (the folder being built).
+fn build(opts: &ValidateOptions, dir: &Path, started: Instant) -> Result<Summary> {
+    let dir = dir.to_path_buf();
     let say = |s: &str| {
         if !opts.quiet {
             eprintln!("{s}");
@@ -356,8 +303,9 @@ pub fn validate(opts: &ValidateOptions) -> Result<Summary> {
     } else {
         let names: Vec<&str> = diag.selected.iter().map(|(e, _)| e.as_str()).collect();
         let file = PathBuf::from(format!("identified+{}.toml", names.join("+")));
-        zmp_files::atomic_write(
+        zmp_files::write_file(
             &dir.join(&file),
+            zmp_files::Kind::Model,
             diag.final_model.to_toml().as_bytes(),
             false,
         )?;
@@ -428,21 +376,12 @@ pub fn validate(opts: &ValidateOptions) -> Result<Summary> {
         wall_s: started.elapsed().as_secs_f64(),
     };
     report::write_html(&dir.join("report.html"), &summary, &ident, &upright)?;
-    zmp_files::atomic_write(
+    zmp_files::write_file(
         &dir.join("summary.json"),
+        zmp_files::Kind::Json,
         serde_json::to_string_pretty(&summary)?.as_bytes(),
         false,
     )?;
-    std::fs::write(
-        dir.join(MARKER),
-        "written by `validate silo2` (zmp-twin); replaced by its next run with --force\n",
-    )?;
-    check_destination(&opts.out, opts.force)?;
-    move_into_place(tmp, &opts.out)?;
-    say(&format!(
-        "report -> {}",
-        opts.out.join("report.html").display()
-    ));
     Ok(summary)
 }
 
@@ -458,8 +397,9 @@ fn make_frames(
     };
     let run = || -> Result<Vec<PathBuf>> {
         let states_file = dir.join("frames").join("states.json");
-        zmp_files::atomic_write(
+        zmp_files::write_file(
             &states_file,
+            zmp_files::Kind::Json,
             serde_json::to_string(states)?.as_bytes(),
             false,
         )?;
