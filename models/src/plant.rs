@@ -33,6 +33,7 @@ pub const DEFAULT_STEP: f64 = 1e-3;
 /// Longest wait for a periodic steady state in [`Plant::simulated_response`], in periods and
 /// in steps, beyond the linear settling time.
 pub const MAX_SETTLE_PERIODS: usize = 2000;
+/// Longest wait in steps (see [`MAX_SETTLE_PERIODS`]).
 pub const MAX_SETTLE_STEPS: usize = 4_000_000;
 
 /// What the plant gives after a step.
@@ -48,6 +49,7 @@ pub struct PlantOutput {
 
 type Chain = Vec<Box<dyn Effect>>;
 
+/// The 2×2 ZMP plant of a model file, stepped at a fixed internal step: CoM references in, measured ZMP and CoM out.
 #[derive(Debug)]
 pub struct Plant {
     h: f64,
@@ -314,14 +316,17 @@ impl Plant {
         Ok(())
     }
 
+    /// The fixed internal step, s.
     pub fn step_size(&self) -> f64 {
         self.h
     }
 
+    /// The pendulum coefficients.
     pub fn pendulum(&self) -> &Pendulum {
         &self.pendulum
     }
 
+    /// The tracking low-pass (servo law) of input axis `input`.
     pub fn tracking_lowpass(&self, input: Axis) -> &TrackingLowpass {
         &self.lowpass[input.index()]
     }
@@ -360,6 +365,7 @@ impl Plant {
         }
     }
 
+    /// The CoM reference the operating-point dependence is linearised about, m.
     pub fn operating_point(&self) -> [f64; 2] {
         self.operating_point
     }
@@ -474,6 +480,7 @@ impl Plant {
         self.last_ref
     }
 
+    /// The outputs of the last step (or of the last reset).
     pub fn last_output(&self) -> PlantOutput {
         self.last
     }

@@ -38,6 +38,7 @@ pub struct ServoState {
     pub acceleration: f64,
 }
 
+/// The servo of one input axis: the tracking low-pass stepped with its servo effects (and the link it drives, if any).
 #[derive(Debug, Clone)]
 pub struct Servo {
     h: f64,
@@ -57,6 +58,7 @@ pub struct Servo {
 }
 
 impl Servo {
+    /// The servo of natural frequency `omega_n` (rad/s) and damping `zeta`, stepped at `h` (s), at rest at zero.
     pub fn new(omega_n: f64, zeta: f64, h: f64) -> Servo {
         let wn2 = omega_n * omega_n;
         let two_zeta_wn = 2.0 * zeta * omega_n;

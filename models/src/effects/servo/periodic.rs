@@ -18,7 +18,7 @@ const FAST_SUBHARMONIC: usize = 6;
 const FAST_SETTLED_REL: f64 = 1e-8;
 
 /// Steady-state first harmonic of the servo position with `limits` (none: the linear servo)
-/// over the reference's `amplitude`: [`servo_harmonics`] is its ratio with and
+/// over the reference's `amplitude`: [`servo_harmonics`](super::servo_harmonics) is its ratio with and
 /// without the limits; a caller that evaluates many limits at one `(omega, amplitude)` can
 /// compute the linear run once.
 pub fn servo_first_harmonic(
