@@ -46,9 +46,11 @@ pub struct MassProperties {
     pub joint_inertia: [f64; 2],
     /// Trunk servo gains: stiffness, N m/rad, and damping, N m s/rad.
     pub kp: [f64; 2],
+    /// Trunk servo damping, N m s/rad.
     pub kv: [f64; 2],
     /// `kp/M_ii`, `kv/M_ii`: the servo alone, (rad/s)², 1/s (the seed's 900 and 60).
     pub servo_omega_n2: [f64; 2],
+    /// `kv/M_ii`: the servo's `2 zeta omega_n`, 1/s (the seed's 60).
     pub servo_2zeta_omega_n: [f64; 2],
     /// Support polygon of double support `[x_min, x_max, y_min, y_max]`, m.
     pub support: [f64; 4],
@@ -64,6 +66,7 @@ impl MassProperties {
 /// `a` and `b` of one prediction (rows: zmp_x, zmp_y; columns: x_cr, y_cr).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Pendulum {
+    /// Static gains from CoM reference to ZMP, dimensionless.
     pub a: [[f64; 2]; 2],
     /// s².
     pub b: [[f64; 2]; 2],
@@ -76,17 +79,23 @@ pub struct OperatingPoint {
     pub com_ref: [f64; 2],
     /// Trunk references and the static angles the servos settle at, rad.
     pub theta_ref: [f64; 2],
+    /// The static angles the servos settle at, rad.
     pub theta: [f64; 2],
     /// Whole-robot CoM at that posture, m.
     pub com: [f64; 3],
+    /// The seed's point-mass prediction (eqs. 6-15).
     pub seed: Pendulum,
+    /// The rigid multibody prediction.
     pub multibody: Pendulum,
+    /// The multibody prediction through the servos.
     pub servo: Pendulum,
     /// Servo closed loop per trunk joint with gravity: rad/s and 1.
     pub omega_n: [f64; 2],
+    /// Damping ratio of each trunk joint's servo loop.
     pub zeta: [f64; 2],
     /// `dZMP_i/dtheta_j` (static, m/rad) and `dZMP_i/dtheta_j''` (m s²/rad) of the rigid robot.
     pub zmp_per_angle: [[f64; 2]; 2],
+    /// `dZMP_i/dtheta_j''` of the rigid robot, m s²/rad.
     pub zmp_per_angular_acceleration: [[f64; 2]; 2],
     /// Static trunk angle per unit reference, `(Kp - K_g)^-1 Kp`.
     pub servo_static_gain: [[f64; 2]; 2],
