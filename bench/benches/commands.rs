@@ -19,7 +19,8 @@
 //! Targets: `xtask identify` <= 0.15 s and >= 15x the numpy peer; `xtask loop` <= 20 s
 //! (issue 10); one diagnosis <= 10 s (`benches/diagnose.rs`).
 
-use criterion::{criterion_group, BatchSize, Criterion};
+use criterion::measurement::WallTime;
+use criterion::{criterion_group, BatchSize, BenchmarkGroup, Criterion};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -120,6 +121,86 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// The loop on the reference robot of [`LOOP_SCENARIO`]: checked once (it must find both
+/// effects and explain the campaign), then timed; each run replaces its own output folder in
+/// `dir`.
+fn bench_loop(g: &mut BenchmarkGroup<'_, WallTime>, bin: &Path, dir: &Path) {
+    // The loop: checked once, then timed (each run replaces its own output folder).
+    let loop_camp = write_loop_campaign(dir);
+    let loop_out = dir.join("loop-out");
+    let lp = [
+        "loop".as_ref(),
+        loop_camp.as_os_str(),
+        "--out".as_ref(),
+        loop_out.as_os_str(),
+        "--force".as_ref(),
+    ];
+    let v = xtask_json(bin, &lp);
+    let found: Vec<&str> = v["found"]
+        .as_array()
+        .expect("found")
+        .iter()
+        .filter_map(|e| e.as_str())
+        .collect();
+    assert!(
+        found.contains(&"time_delay")
+            && found.contains(&"sensor_drift")
+            && v["outcome"] == "explained",
+        "the loop bench's robot: found {found:?} ({}), want time_delay and sensor_drift, \
+         explained: {v}",
+        v["outcome"]
+    );
+    g.warm_up_time(Duration::from_millis(1))
+        .measurement_time(Duration::from_secs(100));
+    g.bench_function("loop_168", |b| b.iter(|| xtask(bin, &lp)));
+}
+
+/// `xtask identify` on the reference campaign `camp` against the numpy peer: reports the
+/// ratio of their medians.
+fn numpy_peer(bin: &Path, camp: &Path, ledger: &Path, identify: &[&std::ffi::OsStr]) {
+    // The numpy peer against `xtask identify`, interleaved (five rounds of three of ours and one
+    // of the peer) so that both see the same phases of a shared machine; medians.
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("peers/identify_numpy.py");
+    let (mut ours, mut peer) = (Vec::new(), Vec::new());
+    for _ in 0..5 {
+        for _ in 0..3 {
+            let _ = std::fs::remove_file(ledger);
+            let t = Instant::now();
+            xtask(bin, identify);
+            ours.push(t.elapsed().as_secs_f64());
+        }
+        let out = match Command::new(python())
+            .arg(&script)
+            .arg(camp)
+            .args(["--threads", "2"])
+            .output()
+        {
+            Ok(o) if o.status.success() => o,
+            Ok(o) => panic!("numpy peer failed: {}", String::from_utf8_lossy(&o.stderr)),
+            Err(e) => panic!(
+                "numpy peer not run ({}: {e}): run `cargo xtask setup` or set ZMP_PYTHON",
+                python().display()
+            ),
+        };
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("peer prints JSON");
+        peer.push(v["wall_s"].as_f64().expect("wall_s"));
+    }
+    let (o, p) = (median(ours), median(peer));
+    println!(
+        "command/identify_168: ours {o:.3} s per process (start to exit), numpy peer {p:.3} s \
+         (read + fit, imports excluded), ratio {:.1}x (target >= 15x; ours <= 0.15 s)",
+        p / o
+    );
+    zmp_bench::report_peer(
+        "identify_168/numpy_vs_command",
+        o,
+        p,
+        "run",
+        "`xtask identify` process (start to exit) against the numpy/pyarrow peer (read + fit), \
+         2 threads each, medians of 15 and 5 interleaved",
+    );
+}
+
 fn bench(c: &mut Criterion) {
     let bin = xtask_bin();
     let tmp = tempfile::tempdir().expect("tempdir");
@@ -172,81 +253,14 @@ fn bench(c: &mut Criterion) {
     g.measurement_time(Duration::from_secs(30));
     g.bench_function("diagnose_168", |b| b.iter(|| xtask(&bin, &diagnose)));
 
-    // The loop: checked once, then timed (each run replaces its own output folder).
-    let loop_camp = write_loop_campaign(tmp.path());
-    let loop_out = tmp.path().join("loop-out");
-    let lp = [
-        "loop".as_ref(),
-        loop_camp.as_os_str(),
-        "--out".as_ref(),
-        loop_out.as_os_str(),
-        "--force".as_ref(),
-    ];
-    let v = xtask_json(&bin, &lp);
-    let found: Vec<&str> = v["found"]
-        .as_array()
-        .expect("found")
-        .iter()
-        .filter_map(|e| e.as_str())
-        .collect();
-    assert!(
-        found.contains(&"time_delay")
-            && found.contains(&"sensor_drift")
-            && v["outcome"] == "explained",
-        "the loop bench's robot: found {found:?} ({}), want time_delay and sensor_drift, \
-         explained: {v}",
-        v["outcome"]
-    );
-    g.warm_up_time(Duration::from_millis(1))
-        .measurement_time(Duration::from_secs(100));
-    g.bench_function("loop_168", |b| b.iter(|| xtask(&bin, &lp)));
+    bench_loop(&mut g, &bin, tmp.path());
     g.finish();
     // `cargo test --benches` runs each bench once: skip the peer there.
     if std::env::args().any(|a| a == "--test" || a == "--list") {
         return;
     }
 
-    // The numpy peer against `xtask identify`, interleaved (five rounds of three of ours and one
-    // of the peer) so that both see the same phases of a shared machine; medians.
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("peers/identify_numpy.py");
-    let (mut ours, mut peer) = (Vec::new(), Vec::new());
-    for _ in 0..5 {
-        for _ in 0..3 {
-            let _ = std::fs::remove_file(&ledger);
-            let t = Instant::now();
-            xtask(&bin, &identify);
-            ours.push(t.elapsed().as_secs_f64());
-        }
-        let out = match Command::new(python())
-            .arg(&script)
-            .arg(&camp)
-            .args(["--threads", "2"])
-            .output()
-        {
-            Ok(o) if o.status.success() => o,
-            Ok(o) => panic!("numpy peer failed: {}", String::from_utf8_lossy(&o.stderr)),
-            Err(e) => panic!(
-                "numpy peer not run ({}: {e}): run `cargo xtask setup` or set ZMP_PYTHON",
-                python().display()
-            ),
-        };
-        let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("peer prints JSON");
-        peer.push(v["wall_s"].as_f64().expect("wall_s"));
-    }
-    let (o, p) = (median(ours), median(peer));
-    println!(
-        "command/identify_168: ours {o:.3} s per process (start to exit), numpy peer {p:.3} s \
-         (read + fit, imports excluded), ratio {:.1}x (target >= 15x; ours <= 0.15 s)",
-        p / o
-    );
-    zmp_bench::report_peer(
-        "identify_168/numpy_vs_command",
-        o,
-        p,
-        "run",
-        "`xtask identify` process (start to exit) against the numpy/pyarrow peer (read + fit), \
-         2 threads each, medians of 15 and 5 interleaved",
-    );
+    numpy_peer(&bin, &camp, &ledger, &identify);
 }
 
 criterion_group!(benches, bench);

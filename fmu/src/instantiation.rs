@@ -18,11 +18,13 @@ use zmp_fmu_core::{FmiVersion, Kind, Slave};
 // Inquire version numbers, debug logging
 // ---------------------------------------------------------------------------------------------
 
+/// The platform types this FMU was compiled with: `"default"` (the standard's headers).
 #[no_mangle]
 pub extern "C" fn fmi2GetTypesPlatform() -> *const c_char {
     c"default".as_ptr()
 }
 
+/// The FMI version of the interface: `"2.0"`.
 #[no_mangle]
 pub extern "C" fn fmi2GetVersion() -> *const c_char {
     c"2.0".as_ptr()

@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! The FMI 2.0 co-simulation interface of the ZMP FMUs, written by hand: all 34 common and
 //! co-simulation `fmi2*` functions, exported with C linkage from one generic shared library.
 //!
@@ -55,36 +56,63 @@ pub use variables::{
     fmi2SetReal, fmi2SetString,
 };
 
+/// An FMU instance, as the importer holds it (`fmi2TypesPlatform.h`).
 pub type fmi2Component = *mut c_void;
+/// The importer's own pointer, passed back to its logger unchanged.
 pub type fmi2ComponentEnvironment = *mut c_void;
+/// A saved FMU state (`fmi2GetFMUstate`; this FMU cannot save its state).
 pub type fmi2FMUstate = *mut c_void;
+/// The handle of a variable: its `valueReference` in modelDescription.xml.
 pub type fmi2ValueReference = c_uint;
+/// A real value of FMI 2.0.
 pub type fmi2Real = f64;
+/// An integer value of FMI 2.0.
 pub type fmi2Integer = c_int;
+/// A boolean of FMI 2.0: [`fmi2True`] or [`fmi2False`].
 pub type fmi2Boolean = c_int;
+/// A character of an FMI 2.0 string.
 pub type fmi2Char = c_char;
+/// A NUL-terminated string of FMI 2.0.
 pub type fmi2String = *const fmi2Char;
+/// A byte of FMI 2.0 (serialised states).
 pub type fmi2Byte = c_char;
+/// The status every FMI 2.0 function returns: [`fmi2OK`] .. [`fmi2Pending`].
 pub type fmi2Status = c_int;
+/// The interface type asked for at instantiation: [`fmi2ModelExchange`] or [`fmi2CoSimulation`].
 pub type fmi2Type = c_int;
+/// Which status `fmi2Get*Status` reports: [`fmi2DoStepStatus`] .. [`fmi2Terminated`].
 pub type fmi2StatusKind = c_int;
 
+/// The call succeeded.
 pub const fmi2OK: fmi2Status = 0;
+/// The call succeeded, with something the importer should be told of.
 pub const fmi2Warning: fmi2Status = 1;
+/// The call did not complete (a step not taken); the instance can go on.
 pub const fmi2Discard: fmi2Status = 2;
+/// The call failed; the instance must be reset or freed.
 pub const fmi2Error: fmi2Status = 3;
+/// The call failed and every instance of the FMU is unusable.
 pub const fmi2Fatal: fmi2Status = 4;
+/// An asynchronous step is still running (never returned: steps are synchronous).
 pub const fmi2Pending: fmi2Status = 5;
 
+/// Model exchange (not supported by these FMUs).
 pub const fmi2ModelExchange: fmi2Type = 0;
+/// Co-simulation, the interface these FMUs implement.
 pub const fmi2CoSimulation: fmi2Type = 1;
 
+/// The status of the last `fmi2DoStep`.
 pub const fmi2DoStepStatus: fmi2StatusKind = 0;
+/// The description of a pending asynchronous step.
 pub const fmi2PendingStatus: fmi2StatusKind = 1;
+/// The end time (s) of the last step taken.
 pub const fmi2LastSuccessfulTime: fmi2StatusKind = 2;
+/// Whether the slave asks to terminate the simulation.
 pub const fmi2Terminated: fmi2StatusKind = 3;
 
+/// Boolean true.
 pub const fmi2True: fmi2Boolean = 1;
+/// Boolean false.
 pub const fmi2False: fmi2Boolean = 0;
 
 /// The importer's logger (C variadic: the message is a printf format).
@@ -100,10 +128,15 @@ pub type fmi2CallbackLogger = unsafe extern "C" fn(
 /// `fmi2CallbackFunctions` of `fmi2FunctionTypes.h`.
 #[repr(C)]
 pub struct fmi2CallbackFunctions {
+    /// Where the FMU sends its log messages.
     pub logger: Option<fmi2CallbackLogger>,
+    /// The importer's `calloc` (unused: the FMU allocates with Rust's allocator).
     pub allocateMemory: Option<unsafe extern "C" fn(usize, usize) -> *mut c_void>,
+    /// The importer's `free` (unused, as `allocateMemory`).
     pub freeMemory: Option<unsafe extern "C" fn(*mut c_void)>,
+    /// Called when an asynchronous step ends (unused: steps are synchronous).
     pub stepFinished: Option<unsafe extern "C" fn(fmi2ComponentEnvironment, fmi2Status)>,
+    /// Passed back unchanged as the logger's first argument.
     pub componentEnvironment: fmi2ComponentEnvironment,
 }
 

@@ -7,11 +7,14 @@ use std::fmt;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Axis {
+    /// Lateral plane (first axis, index 0).
     X,
+    /// Sagittal plane (second axis, index 1).
     Y,
 }
 
 impl Axis {
+    /// Both axes, x first.
     pub const BOTH: [Axis; 2] = [Axis::X, Axis::Y];
 
     /// 0 for x, 1 for y: the row/column index in the 2×2 plant.
@@ -22,6 +25,7 @@ impl Axis {
         }
     }
 
+    /// The axis of index `i` (0: x, 1: y); `None` for any other index.
     pub fn from_index(i: usize) -> Option<Axis> {
         match i {
             0 => Some(Axis::X),
@@ -30,6 +34,7 @@ impl Axis {
         }
     }
 
+    /// The axis's name in model files and keys: "x" or "y".
     pub fn name(self) -> &'static str {
         match self {
             Axis::X => "x",
@@ -37,6 +42,7 @@ impl Axis {
         }
     }
 
+    /// The axis named `s` ("x" or "y"), `None` for anything else.
     pub fn parse(s: &str) -> Option<Axis> {
         match s {
             "x" => Some(Axis::X),
@@ -55,11 +61,14 @@ impl fmt::Display for Axis {
 /// Channel `G_ij` of the plant: output `zmp_i` from input `i_cr`, `j` the excited reference.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct Channel {
+    /// The ZMP axis the channel measures (`i` of `G_ij`).
     pub output: Axis,
+    /// The CoM reference axis that excites it (`j` of `G_ij`).
     pub input: Axis,
 }
 
 impl Channel {
+    /// The four channels, row by row: G11, G12, G21, G22.
     pub const ALL: [Channel; 4] = [
         Channel::new(Axis::X, Axis::X),
         Channel::new(Axis::X, Axis::Y),
@@ -67,6 +76,7 @@ impl Channel {
         Channel::new(Axis::Y, Axis::Y),
     ];
 
+    /// The channel from reference `input` to ZMP `output`.
     pub const fn new(output: Axis, input: Axis) -> Channel {
         Channel { output, input }
     }
@@ -86,6 +96,7 @@ impl Channel {
         &self.name()[1..]
     }
 
+    /// The channel named `s`, as "G12" or as its suffix "12"; `None` otherwise.
     pub fn parse(s: &str) -> Option<Channel> {
         Channel::ALL
             .into_iter()

@@ -14,13 +14,17 @@ use crate::plant::Plant;
 pub struct StepExperiment {
     /// ZMP reference before and after the step at t = 0, m.
     pub zmp_ref_before: [f64; 2],
+    /// ZMP reference after the step, m.
     pub zmp_ref_after: [f64; 2],
     /// When the load is placed, s.
     pub load_time: f64,
+    /// Mass of the load, kg.
     pub load_mass: f64,
+    /// Mass of the robot without the load, kg.
     pub robot_mass: f64,
     /// Where the load sits, absolute ZMP-plane coordinates, m.
     pub load_position: [f64; 2],
+    /// Length of the run, s.
     pub duration: f64,
     /// Controller sample period, s; a whole number of plant steps.
     pub controller_period: f64,
@@ -45,11 +49,15 @@ impl StepExperiment {
 /// Time series of a closed-loop run, one sample per controller period.
 #[derive(Debug, Clone, Default)]
 pub struct ClosedLoopTrace {
+    /// Sample times, s.
     pub t: Vec<f64>,
+    /// ZMP reference, m.
     pub zmp_ref: Vec<[f64; 2]>,
     /// Measured ZMP (load included), m.
     pub zmp: Vec<[f64; 2]>,
+    /// CoM reference the controller sends to the plant, m.
     pub com_ref: Vec<[f64; 2]>,
+    /// CoM position of the plant, m.
     pub com: Vec<[f64; 2]>,
     /// Trunk angle, rad.
     pub theta: Vec<[f64; 2]>,

@@ -23,8 +23,9 @@ pub struct CascadeParams {
     pub mass_ratio: f64,
     /// Trunk length `l_t`, m (eq. 26).
     pub trunk_length: f64,
-    /// Trunk angle limits, rad.
+    /// Lower trunk angle limit, rad.
     pub theta_min: f64,
+    /// Upper trunk angle limit, rad.
     pub theta_max: f64,
 }
 
@@ -107,6 +108,7 @@ pub struct CascadeAxis {
 }
 
 impl CascadeAxis {
+    /// The axis of controller `p` sampled every `h` (s), at rest with the trunk upright.
     pub fn new(p: CascadeParams, h: f64) -> CascadeAxis {
         let a = (-p.k2 * h).exp();
         // Lag y' = K2 (u - y) with u ramping from u0 to u1 over h:
@@ -128,6 +130,7 @@ impl CascadeAxis {
         }
     }
 
+    /// The controller's parameters.
     pub fn params(&self) -> &CascadeParams {
         &self.p
     }
@@ -154,6 +157,7 @@ impl CascadeAxis {
         self.lag
     }
 
+    /// The trunk angle reference of the last step (the lag's output), rad.
     pub fn theta(&self) -> f64 {
         self.lag
     }
@@ -162,12 +166,14 @@ impl CascadeAxis {
 /// Both axes: ZMP references and measurements in, CoM references out.
 #[derive(Debug, Clone)]
 pub struct CascadeController {
+    /// The x and y axes' controllers.
     pub axes: [CascadeAxis; 2],
     /// CoM reference at zero trunk angle, m.
     pub com_offset: [f64; 2],
 }
 
 impl CascadeController {
+    /// Both axes of controller `p` sampled every `h` (s), at rest, no CoM offset.
     pub fn new(p: CascadeParams, h: f64) -> CascadeController {
         CascadeController {
             axes: [CascadeAxis::new(p, h), CascadeAxis::new(p, h)],
@@ -183,6 +189,7 @@ impl CascadeController {
         }
     }
 
+    /// One step: ZMP references and measurements (m) in, CoM references (m) out.
     #[inline]
     pub fn step(&mut self, zmp_ref: [f64; 2], zmp: [f64; 2]) -> [f64; 2] {
         let mut out = [0.0; 2];
@@ -193,6 +200,7 @@ impl CascadeController {
         out
     }
 
+    /// Both axes' trunk angle references, rad.
     pub fn theta(&self) -> [f64; 2] {
         [self.axes[0].theta(), self.axes[1].theta()]
     }

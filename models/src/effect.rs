@@ -32,8 +32,11 @@ pub enum Site {
 /// The place one instance of an effect is bound to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Binding {
+    /// The whole plant (the pendulum's effects).
     Global,
+    /// One input or output axis.
     Axis(Axis),
+    /// One channel `G_ij`.
     Channel(Channel),
 }
 
@@ -63,6 +66,7 @@ impl Binding {
         }
     }
 
+    /// The binding of an effect at `site` whose model-file key is `key` (`x`, `G21`); `None` if the site has no such place.
     pub fn parse(site: Site, key: &str) -> Option<Binding> {
         Binding::all_for(site)
             .iter()
@@ -80,17 +84,22 @@ impl fmt::Display for Binding {
 /// One parameter of an effect. Units are SI.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ParamSpec {
+    /// The parameter's name in model files and FMU variables.
     pub name: &'static str,
+    /// Its SI unit ("1": dimensionless).
     pub unit: &'static str,
     /// Inclusive bounds; a value outside is a model-file error.
     pub min: f64,
+    /// Inclusive upper bound (`min` is the lower).
     pub max: f64,
     /// Used when the model file omits the parameter; `None` makes it required.
     pub default: Option<f64>,
+    /// What the parameter is, for the model page and the FMU's variable description.
     pub doc: &'static str,
 }
 
 impl ParamSpec {
+    /// A parameter the model file must give, within `[min, max]`.
     pub const fn required(
         name: &'static str,
         unit: &'static str,
@@ -108,6 +117,7 @@ impl ParamSpec {
         }
     }
 
+    /// A parameter the model file may omit, then `default`.
     pub const fn optional(
         name: &'static str,
         unit: &'static str,
@@ -132,6 +142,7 @@ impl ParamSpec {
 pub struct BuildContext {
     /// The plant's fixed internal step, s.
     pub h: f64,
+    /// Where the effect instance sits (axis, channel or global).
     pub binding: Binding,
     /// The tracking low-pass of the bound input axis `(omega_n rad/s, zeta)`, for servo effects.
     pub servo: Option<(f64, f64)>,
@@ -155,14 +166,21 @@ pub fn check_switch(v: &[f64], k: usize, off: &str, on: &str) -> Result<(), (usi
 pub struct EffectInfo {
     /// The kind; its name is what model files, diagnosis JSON and FMU variables carry.
     pub kind: crate::EffectKind,
+    /// The kind's title on the model page.
     pub title: &'static str,
+    /// What the effect models, for the model page.
     pub doc: &'static str,
+    /// Where in the plant the effect acts.
     pub site: Site,
     /// Core effects form the nominal plant and must be present in every model.
     pub core: bool,
+    /// Whether the effect is linear (a transfer function; its frequency response is exact).
     pub linear: bool,
+    /// The effect's parameters, in model-file order.
     pub params: &'static [ParamSpec],
+    /// A check across the parameters (`None`: the bounds suffice); an error names the parameter index.
     pub validate: Option<Validate>,
+    /// Builds the run-time effect from the context and the parameter values.
     pub build: fn(&BuildContext, &[f64]) -> Box<dyn Effect>,
 }
 
@@ -175,6 +193,7 @@ impl fmt::Debug for EffectInfo {
 }
 
 impl EffectInfo {
+    /// Index of the parameter called `name` in [`EffectInfo::params`].
     pub fn param_index(&self, name: &str) -> Option<usize> {
         self.params.iter().position(|p| p.name == name)
     }
@@ -183,6 +202,7 @@ impl EffectInfo {
 /// A physical effect at run time. Methods that do not apply to the effect's site keep their
 /// identity default. `step` and friends never allocate and never panic.
 pub trait Effect: Send + Sync + fmt::Debug {
+    /// The static description of the effect's kind.
     fn info(&self) -> &'static EffectInfo;
 
     /// First-harmonic gain from the effect's input to its output at `omega_rad_s` for an input

@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 #![doc = include_str!("../README.md")]
 // Index loops read as the matrix algebra they implement.
 #![allow(clippy::needless_range_loop)]

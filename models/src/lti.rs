@@ -23,6 +23,7 @@ pub const MAX_ORDER: usize = 6;
 pub struct Poly(pub Vec<f64>);
 
 impl Poly {
+    /// The polynomial of coefficients `ascending` (constant first), trailing zeros dropped.
     pub fn new(ascending: &[f64]) -> Poly {
         let mut c = ascending.to_vec();
         while c.len() > 1 && c[c.len() - 1] == 0.0 {
@@ -31,10 +32,12 @@ impl Poly {
         Poly(c)
     }
 
+    /// The degree: the highest power with a non-zero coefficient (0 for a constant).
     pub fn degree(&self) -> usize {
         self.0.len().saturating_sub(1)
     }
 
+    /// The polynomial's value at `s` (Horner).
     pub fn eval(&self, s: Complex64) -> Complex64 {
         self.0
             .iter()
@@ -42,6 +45,7 @@ impl Poly {
             .fold(Complex64::new(0.0, 0.0), |acc, &c| acc * s + c)
     }
 
+    /// The product `self * other`.
     pub fn mul(&self, other: &Poly) -> Poly {
         let mut c = vec![0.0; self.0.len() + other.0.len() - 1];
         for (i, a) in self.0.iter().enumerate() {
@@ -52,6 +56,7 @@ impl Poly {
         Poly::new(&c)
     }
 
+    /// The sum `self + other`.
     pub fn add(&self, other: &Poly) -> Poly {
         let n = self.0.len().max(other.0.len());
         let c: Vec<f64> = (0..n)
@@ -60,6 +65,7 @@ impl Poly {
         Poly::new(&c)
     }
 
+    /// Every coefficient times `k`.
     pub fn scale(&self, k: f64) -> Poly {
         Poly::new(&self.0.iter().map(|c| c * k).collect::<Vec<_>>())
     }
@@ -68,27 +74,34 @@ impl Poly {
 /// A proper rational transfer function `num(s) / den(s)`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TransferFunction {
+    /// Numerator polynomial.
     pub num: Poly,
+    /// Denominator polynomial.
     pub den: Poly,
 }
 
 impl TransferFunction {
+    /// The transfer function `num / den`.
     pub fn new(num: Poly, den: Poly) -> TransferFunction {
         TransferFunction { num, den }
     }
 
+    /// The constant gain `k`.
     pub fn gain(k: f64) -> TransferFunction {
         TransferFunction::new(Poly::new(&[k]), Poly::new(&[1.0]))
     }
 
+    /// The value at the complex frequency `s` (rad/s).
     pub fn eval(&self, s: Complex64) -> Complex64 {
         self.num.eval(s) / self.den.eval(s)
     }
 
+    /// The frequency response at `omega` (rad/s): the value at `s = j omega`.
     pub fn freq(&self, omega: f64) -> Complex64 {
         self.eval(Complex64::new(0.0, omega))
     }
 
+    /// The series connection `self * other`.
     pub fn mul(&self, other: &TransferFunction) -> TransferFunction {
         TransferFunction::new(self.num.mul(&other.num), self.den.mul(&other.den))
     }
@@ -191,6 +204,7 @@ impl DiscreteLti {
         Self::from_state_space(&a, &b, &c, d, h)
     }
 
+    /// Discretises `x' = a x + b u`, `y = c x + d u` with step `h` (s) and a first-order hold of the input; order at most [`MAX_ORDER`].
     pub fn from_state_space(
         a: &DMatrix<f64>,
         b: &DVector<f64>,
@@ -231,6 +245,7 @@ impl DiscreteLti {
         s
     }
 
+    /// The state dimension.
     pub fn order(&self) -> usize {
         self.n
     }
@@ -305,7 +320,7 @@ impl DiscreteLti {
 const MAX_SWEEPS_PER_DIM: usize = 100;
 
 /// The eigenvalues of a square matrix, or `None` when an entry is not finite or the QR
-/// iteration does not converge within [`MAX_SWEEPS_PER_DIM`] sweeps per dimension.
+/// iteration does not converge within 100 sweeps per dimension.
 /// nalgebra's `complex_eigenvalues` iterates without a limit: on a matrix with a NaN (a
 /// fit's parameters at an edge, a simulated orbit that blew up) it never returns, and a
 /// diagnosis held by it ignored its time limit (held-out draw 1240001).

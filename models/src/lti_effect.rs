@@ -5,6 +5,7 @@ use crate::effect::{Effect, EffectInfo};
 use crate::lti::{DiscreteLti, TransferFunction};
 use num_complex::Complex64;
 
+/// A linear effect: its transfer function, discretised exactly for the plant's step.
 #[derive(Debug, Clone)]
 pub struct LtiEffect {
     info: &'static EffectInfo,
@@ -13,6 +14,7 @@ pub struct LtiEffect {
 }
 
 impl LtiEffect {
+    /// The effect `info` of transfer function `tf`, stepped at `h` (s).
     pub fn new(info: &'static EffectInfo, tf: TransferFunction, h: f64) -> LtiEffect {
         let sys = DiscreteLti::new(&tf, h);
         LtiEffect { info, tf, sys }

@@ -9,6 +9,7 @@ use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, DefaultHasher, Hash};
 use std::sync::Mutex;
 
+/// A bounded memory of `K -> V`, shared between threads, emptied when full.
 pub struct Memo<K, V> {
     map: Mutex<Option<HashMap<K, V, BuildHasherDefault<DefaultHasher>>>>,
     max: usize,

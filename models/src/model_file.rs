@@ -28,6 +28,7 @@ use crate::EffectKind;
 use std::fmt;
 use std::fmt::Write as _;
 
+/// The format string a model file declares in its `format` key.
 pub const MODEL_FORMAT: &str = "zmp-model/1";
 
 const META_KEYS: [&str; 5] = ["format", "name", "description", "provenance", "stderr"];
@@ -35,8 +36,11 @@ const META_KEYS: [&str; 5] = ["format", "name", "description", "provenance", "st
 /// A model-file error: the file, the dotted key, and what is wrong.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ModelError {
+    /// The file the error is in (its name or path).
     pub file: String,
+    /// The dotted key of the offending value (`uncertainty.G11.k`); empty for the whole file.
     pub key: String,
+    /// What is wrong, and what is accepted.
     pub message: String,
 }
 
@@ -55,8 +59,11 @@ impl std::error::Error for ModelError {}
 /// One instance of an effect: where it acts and its parameter values in `info.params` order.
 #[derive(Debug, Clone)]
 pub struct EffectInstance {
+    /// The effect's kind, with its parameters' specifications.
     pub info: &'static EffectInfo,
+    /// Where the instance acts.
     pub binding: Binding,
+    /// The parameter values, in `info.params` order, in their SI units.
     pub values: Vec<f64>,
 }
 
@@ -69,10 +76,12 @@ impl EffectInstance {
         }
     }
 
+    /// The value of the parameter called `param`, if the kind has one.
     pub fn value(&self, param: &str) -> Option<f64> {
         self.info.param_index(param).map(|i| self.values[i])
     }
 
+    /// The run-time effect of this instance in the plant described by `ctx`.
     pub fn build(&self, ctx: &BuildContext) -> Box<dyn Effect> {
         (self.info.build)(ctx, &self.values)
     }
@@ -81,21 +90,30 @@ impl EffectInstance {
 /// A parsed model: effects in canonical order, plus metadata kept verbatim.
 #[derive(Debug, Clone)]
 pub struct ModelSpec {
+    /// The model's `name`, if the file gives one.
     pub name: Option<String>,
+    /// The model's `description`, if the file gives one.
     pub description: Option<String>,
+    /// The effect instances, in canonical order (registry order, then binding).
     pub effects: Vec<EffectInstance>,
     /// `provenance` and `stderr` tables, kept as they are.
     pub provenance: toml::Table,
+    /// The `stderr` table (standard errors of the identified parameters), kept as it is.
     pub stderr: toml::Table,
 }
 
 /// A parameter of a model with its full dotted name (`uncertainty.G11.k`).
 #[derive(Debug, Clone)]
 pub struct ParamRef {
+    /// The full dotted name (`uncertainty.G11.k`).
     pub key: String,
+    /// The parameter's specification (unit, bounds, doc).
     pub spec: &'static ParamSpec,
+    /// Its value in the model, in its SI unit.
     pub value: f64,
+    /// Index of its effect instance in [`ModelSpec::effects`].
     pub effect: usize,
+    /// Index of the parameter in its effect's `values`.
     pub index: usize,
 }
 
@@ -131,6 +149,7 @@ impl ModelSpec {
         Self::from_table(&table, file)
     }
 
+    /// The model of a parsed TOML table (`file` names it in errors); every key checked.
     pub fn from_table(table: &toml::Table, file: &str) -> Result<ModelSpec, ModelError> {
         match table.get("format") {
             Some(toml::Value::String(s)) if s == MODEL_FORMAT => {}
@@ -261,18 +280,21 @@ impl ModelSpec {
         Ok(())
     }
 
+    /// The instance of effect `kind` at `binding`, if the model has it.
     pub fn get(&self, kind: EffectKind, binding: Binding) -> Option<&EffectInstance> {
         self.effects
             .iter()
             .find(|e| e.info.kind == kind && e.binding == binding)
     }
 
+    /// The instance of effect `kind` at `binding`, mutable, if the model has it.
     pub fn get_mut(&mut self, kind: EffectKind, binding: Binding) -> Option<&mut EffectInstance> {
         self.effects
             .iter_mut()
             .find(|e| e.info.kind == kind && e.binding == binding)
     }
 
+    /// Whether the model has an instance of effect `kind`.
     pub fn has(&self, kind: EffectKind) -> bool {
         self.effects.iter().any(|e| e.info.kind == kind)
     }

@@ -21,7 +21,7 @@ use crate::effects::servo::Servo;
 use crate::effects::servo_link::TrunkLink;
 use crate::effects::tracking_lowpass::TrackingLowpass;
 use crate::harmonic::steady_first_harmonics;
-use crate::model_file::{ModelError, ModelSpec};
+use crate::model_file::{EffectInstance, ModelError, ModelSpec};
 use crate::EffectKind;
 use num_complex::Complex64;
 
@@ -33,6 +33,7 @@ pub const DEFAULT_STEP: f64 = 1e-3;
 /// Longest wait for a periodic steady state in [`Plant::simulated_response`], in periods and
 /// in steps, beyond the linear settling time.
 pub const MAX_SETTLE_PERIODS: usize = 2000;
+/// Longest wait in steps (see [`MAX_SETTLE_PERIODS`]).
 pub const MAX_SETTLE_STEPS: usize = 4_000_000;
 
 /// What the plant gives after a step.
@@ -48,6 +49,7 @@ pub struct PlantOutput {
 
 type Chain = Vec<Box<dyn Effect>>;
 
+/// The 2×2 ZMP plant of a model file, stepped at a fixed internal step: CoM references in, measured ZMP and CoM out.
 #[derive(Debug)]
 pub struct Plant {
     h: f64,
@@ -94,39 +96,24 @@ fn reset_chain(chain: &mut Chain, mut u: f64) -> f64 {
     u
 }
 
-impl Plant {
-    /// Builds the plant of `spec` with internal step `h` (s).
-    pub fn new(spec: &ModelSpec, h: f64) -> Result<Plant, ModelError> {
-        let file = spec.name.clone().unwrap_or_else(|| "model".into());
-        spec.validate(&file)?;
-        if !(h > 0.0 && h <= 0.1) {
-            return Err(ModelError {
-                file,
-                key: "step".into(),
-                message: format!("internal step {h} s must be in (0, 0.1]"),
-            });
-        }
-        let pendulum = Pendulum::from_values(
-            &spec
-                .get(EffectKind::Pendulum, Binding::Global)
-                .expect("validated")
-                .values,
-        );
-        let lp = |a: Axis| {
-            let v = &spec
-                .get(EffectKind::TrackingLowpass, Binding::Axis(a))
-                .expect("validated")
-                .values;
-            TrackingLowpass {
-                omega_n: v[0],
-                zeta: v[1],
-            }
-        };
-        let lowpass = [lp(Axis::X), lp(Axis::Y)];
-        // A flexible trunk with `in_servo = 1` is stepped inside its axis's servo loop (where a
-        // force limit or friction acts on the force that drives the joint against the link);
-        // otherwise it is the small-signal filter of the CoM reference before the servo.
-        // A backlash with `in_servo = 1` is the play of such a link between drive and trunk.
+/// The link a servo drives inside its loop, per input axis, and where it comes from.
+///
+/// A flexible trunk with `in_servo = 1` is stepped inside its axis's servo loop (where a
+/// force limit or friction acts on the force that drives the joint against the link);
+/// otherwise it is the small-signal filter of the CoM reference before the servo. A backlash
+/// with `in_servo = 1` is the play of such a link between drive and trunk.
+struct ServoLinks {
+    /// The flexible trunk inside the servo loop of each axis.
+    trunk: [Option<TrunkLink>; 2],
+    /// The backlash inside the servo loop of each axis.
+    play: [Option<TrunkLink>; 2],
+    /// The one link each axis's servo drives (the trunk or the play).
+    link: [Option<TrunkLink>; 2],
+}
+
+impl ServoLinks {
+    /// The links of `spec`; an axis with both a trunk and a play inside its servo is an error.
+    fn of(spec: &ModelSpec, file: &str) -> Result<ServoLinks, ModelError> {
         let trunk = Axis::BOTH.map(|a| {
             let v = &spec
                 .get(EffectKind::FlexibleTrunk, Binding::Axis(a))?
@@ -150,7 +137,7 @@ impl Plant {
             link[k] = match (trunk[k], play[k]) {
                 (Some(_), Some(_)) => {
                     return Err(ModelError {
-                        file,
+                        file: file.into(),
                         key: format!("backlash.{}.in_servo", a.name()),
                         message: "a servo drives one link: a backlash inside the servo and a \
                                   flexible trunk inside it on the same axis are not supported \
@@ -161,14 +148,88 @@ impl Plant {
                 (t, p) => t.or(p),
             };
         }
+        Ok(ServoLinks { trunk, play, link })
+    }
+
+    /// Whether `inst` is the trunk or the play stepped inside its axis's servo loop.
+    fn in_loop(&self, inst: &EffectInstance, a: Axis) -> bool {
+        (inst.info.kind == EffectKind::FlexibleTrunk && self.trunk[a.index()].is_some())
+            || (inst.info.kind == EffectKind::Backlash && self.play[a.index()].is_some())
+    }
+}
+
+/// A delay the plant cannot store at the internal step `h` (s) is an error.
+fn check_delay(inst: &EffectInstance, h: f64, file: &str) -> Result<(), ModelError> {
+    if inst.info.kind == EffectKind::TimeDelay
+        && inst.values[0] / h > crate::effects::time_delay::MAX_DELAY_STEPS
+    {
+        return Err(ModelError {
+            file: file.into(),
+            key: format!("{}.delay", inst.key()),
+            message: format!(
+                "a delay of {} s at an internal step of {h} s needs {:.3e} stored \
+                 steps; at most {:.0e} (use a longer step)",
+                inst.values[0],
+                inst.values[0] / h,
+                crate::effects::time_delay::MAX_DELAY_STEPS
+            ),
+        });
+    }
+    Ok(())
+}
+
+impl Plant {
+    /// Builds the plant of `spec` with internal step `h` (s).
+    pub fn new(spec: &ModelSpec, h: f64) -> Result<Plant, ModelError> {
+        let file = spec.name.clone().unwrap_or_else(|| "model".into());
+        spec.validate(&file)?;
+        if !(h > 0.0 && h <= 0.1) {
+            return Err(ModelError {
+                file,
+                key: "step".into(),
+                message: format!("internal step {h} s must be in (0, 0.1]"),
+            });
+        }
+        let links = ServoLinks::of(spec, &file)?;
+        let mut plant = Plant::nominal(spec, h, &links);
+        for inst in spec.effects.iter().filter(|e| !e.info.core) {
+            check_delay(inst, h, &file)?;
+            plant.insert(inst, &links, &file)?;
+        }
+        plant.check_servo_stiffness(&file)?;
+        plant.set_operating_point([0.0, 0.0]);
+        plant.reset([0.0, 0.0]);
+        Ok(plant)
+    }
+
+    /// The plant of the core effects of `spec` (pendulum and tracking low-pass, each servo
+    /// driving its axis's link), every chain empty.
+    fn nominal(spec: &ModelSpec, h: f64, links: &ServoLinks) -> Plant {
+        let pendulum = Pendulum::from_values(
+            &spec
+                .get(EffectKind::Pendulum, Binding::Global)
+                .expect("validated")
+                .values,
+        );
+        let lp = |a: Axis| {
+            let v = &spec
+                .get(EffectKind::TrackingLowpass, Binding::Axis(a))
+                .expect("validated")
+                .values;
+            TrackingLowpass {
+                omega_n: v[0],
+                zeta: v[1],
+            }
+        };
+        let lowpass = [lp(Axis::X), lp(Axis::Y)];
         let servo = |k: usize| {
             let s = Servo::new(lowpass[k].omega_n, lowpass[k].zeta, h);
-            match link[k] {
+            match links.link[k] {
                 Some(l) => s.with_link(l),
                 None => s,
             }
         };
-        let mut plant = Plant {
+        Plant {
             h,
             command: [Vec::new(), Vec::new()],
             servo: [servo(0), servo(1)],
@@ -187,89 +248,85 @@ impl Plant {
             last: PlantOutput::default(),
             last_ref: [0.0; 2],
             channel_out: [[0.0; 2]; 2],
+        }
+    }
+
+    /// Builds the non-core effect `inst` and puts it in the chain of its site and binding.
+    fn insert(
+        &mut self,
+        inst: &EffectInstance,
+        links: &ServoLinks,
+        file: &str,
+    ) -> Result<(), ModelError> {
+        let lowpass = self.lowpass;
+        let servo = match inst.binding {
+            Binding::Axis(a) => Some((lowpass[a.index()].omega_n, lowpass[a.index()].zeta)),
+            _ => None,
         };
-        for inst in spec.effects.iter().filter(|e| !e.info.core) {
-            if inst.info.kind == EffectKind::TimeDelay
-                && inst.values[0] / h > crate::effects::time_delay::MAX_DELAY_STEPS
-            {
-                return Err(ModelError {
-                    file,
-                    key: format!("{}.delay", inst.key()),
-                    message: format!(
-                        "a delay of {} s at an internal step of {h} s needs {:.3e} stored \
-                         steps; at most {:.0e} (use a longer step)",
-                        inst.values[0],
-                        inst.values[0] / h,
-                        crate::effects::time_delay::MAX_DELAY_STEPS
-                    ),
-                });
+        let in_loop = match inst.binding {
+            Binding::Axis(a) => links.link[a.index()],
+            _ => None,
+        };
+        let ctx = BuildContext {
+            h: self.h,
+            binding: inst.binding,
+            servo,
+            link: in_loop,
+        };
+        let effect = inst.build(&ctx);
+        match (inst.info.site, inst.binding) {
+            (Site::Command, Binding::Axis(a)) if links.in_loop(inst, a) => {
+                self.in_loop[a.index()].push(effect)
             }
-            let servo = match inst.binding {
-                Binding::Axis(a) => Some((lowpass[a.index()].omega_n, lowpass[a.index()].zeta)),
-                _ => None,
-            };
-            let in_loop = match inst.binding {
-                Binding::Axis(a) => link[a.index()],
-                _ => None,
-            };
-            let ctx = BuildContext {
-                h,
-                binding: inst.binding,
-                servo,
-                link: in_loop,
-            };
-            let effect = inst.build(&ctx);
-            match (inst.info.site, inst.binding) {
-                (Site::Command, Binding::Axis(a))
-                    if (inst.info.kind == EffectKind::FlexibleTrunk
-                        && trunk[a.index()].is_some())
-                        || (inst.info.kind == EffectKind::Backlash
-                            && play[a.index()].is_some()) =>
-                {
-                    plant.in_loop[a.index()].push(effect)
-                }
-                (Site::Command, Binding::Axis(a)) => plant.command[a.index()].push(effect),
-                (Site::Servo, Binding::Axis(a)) => plant.servo_limits[a.index()].push(effect),
-                (Site::Pendulum, _) => plant.pendulum_mods.push(effect),
-                (Site::Channel, Binding::Channel(c)) => {
-                    plant.channel[c.output.index()][c.input.index()].push(effect)
-                }
-                (Site::Sensor, Binding::Axis(a)) => plant.sensor[a.index()].push(effect),
-                _ => {
-                    return Err(ModelError {
-                        file,
-                        key: inst.key(),
-                        message: "effect bound to a place its site does not have".into(),
-                    })
-                }
+            (Site::Command, Binding::Axis(a)) => self.command[a.index()].push(effect),
+            (Site::Servo, Binding::Axis(a)) => self.servo_limits[a.index()].push(effect),
+            (Site::Pendulum, _) => self.pendulum_mods.push(effect),
+            (Site::Channel, Binding::Channel(c)) => {
+                self.channel[c.output.index()][c.input.index()].push(effect)
+            }
+            (Site::Sensor, Binding::Axis(a)) => self.sensor[a.index()].push(effect),
+            _ => {
+                return Err(ModelError {
+                    file: file.into(),
+                    key: inst.key(),
+                    message: "effect bound to a place its site does not have".into(),
+                })
             }
         }
+        Ok(())
+    }
+
+    /// The servo's RK4 must step its limits stably at the internal step: a friction's
+    /// regularisation too stiff for it is an error.
+    fn check_servo_stiffness(&self, file: &str) -> Result<(), ModelError> {
         for a in Axis::BOTH {
-            let longest = crate::effects::servo::max_step(&plant.servo_limits[a.index()]);
-            if h > longest {
+            let longest = crate::effects::servo::max_step(&self.servo_limits[a.index()]);
+            if self.h > longest {
                 return Err(ModelError {
-                    file,
+                    file: file.into(),
                     key: format!("coulomb_friction.{}.v_s", a.name()),
                     message: format!(
                         "the friction's regularisation (level / v_s) is too stiff for the \
-                         internal step {h} s: at most {longest:.3e} s, or a larger v_s"
+                         internal step {} s: at most {longest:.3e} s, or a larger v_s",
+                        self.h
                     ),
                 });
             }
         }
-        plant.set_operating_point([0.0, 0.0]);
-        plant.reset([0.0, 0.0]);
-        Ok(plant)
+        Ok(())
     }
 
+    /// The fixed internal step, s.
     pub fn step_size(&self) -> f64 {
         self.h
     }
 
+    /// The pendulum coefficients.
     pub fn pendulum(&self) -> &Pendulum {
         &self.pendulum
     }
 
+    /// The tracking low-pass (servo law) of input axis `input`.
     pub fn tracking_lowpass(&self, input: Axis) -> &TrackingLowpass {
         &self.lowpass[input.index()]
     }
@@ -308,6 +365,7 @@ impl Plant {
         }
     }
 
+    /// The CoM reference the operating-point dependence is linearised about, m.
     pub fn operating_point(&self) -> [f64; 2] {
         self.operating_point
     }
@@ -422,6 +480,7 @@ impl Plant {
         self.last_ref
     }
 
+    /// The outputs of the last step (or of the last reset).
     pub fn last_output(&self) -> PlantOutput {
         self.last
     }

@@ -84,10 +84,12 @@ pub struct Weight {
 }
 
 impl Weight {
+    /// The weight's value at the complex frequency `s` (rad/s).
     pub fn at(&self, s: Complex64) -> Complex64 {
         self.k * (s + self.z) / (s + self.p)
     }
 
+    /// The weight's frequency response at `omega` (rad/s).
     pub fn response(&self, omega: f64) -> Complex64 {
         self.at(Complex64::new(0.0, omega))
     }
@@ -114,6 +116,7 @@ impl Weights {
         Weights(w)
     }
 
+    /// The weight of channel `ch`, `None` if the model has none there.
     pub fn get(&self, ch: Channel) -> Option<Weight> {
         self.0[channel_index(ch)]
     }
@@ -131,6 +134,7 @@ impl Weights {
 /// any `s` of the closed right half-plane (the nominal-stability count evaluates it off the
 /// imaginary axis, around its poles at the origin).
 pub trait LoopController {
+    /// The controller's 2×2 transfer matrix at `s` (rad/s).
     fn at(&self, s: Complex64) -> Response2;
     /// One line for reports: what the controller is.
     fn describe(&self) -> String;
@@ -155,6 +159,7 @@ fn hold(x: Complex64) -> Complex64 {
 /// (eq. 26). The angle limits are not in it (small signal).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CascadeLoop {
+    /// The cascade controller's gains and trunk geometry.
     pub params: CascadeParams,
     /// Controller sample period `T`, s (0: continuous).
     pub period: f64,
@@ -205,9 +210,11 @@ impl LoopController for CascadeLoop {
 /// Where the loop is evaluated (see the module docs for the choice).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Grid {
-    /// Lowest and highest frequency, rad/s.
+    /// Lowest frequency, rad/s.
     pub lo: f64,
+    /// Highest frequency, rad/s.
     pub hi: f64,
+    /// Frequencies per decade, log-spaced.
     pub per_decade: usize,
 }
 
@@ -222,6 +229,7 @@ impl Default for Grid {
 }
 
 impl Grid {
+    /// The grid's frequencies, rad/s, ascending from `lo` to `hi`.
     pub fn omegas(&self) -> Vec<f64> {
         let decades = (self.hi / self.lo).log10();
         let n = (decades * self.per_decade as f64).round().max(1.0) as usize;
@@ -234,7 +242,9 @@ impl Grid {
 /// `||W_k T_k||_inf` of one channel.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ChannelMargin {
+    /// The channel.
     pub channel: Channel,
+    /// Its uncertainty weight.
     pub weight: Weight,
     /// `max_w |W_k T_k|`; below 1: robustly stable against this channel's uncertainty.
     pub peak: f64,
@@ -247,6 +257,7 @@ pub struct ChannelMargin {
 /// The structured margin: the peak over frequency of the `mu` upper bound.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StructuredMargin {
+    /// Peak over frequency of the `mu` upper bound; below 1: robustly stable against all weighted channels at once.
     pub peak: f64,
     /// Where it is tightest, rad/s.
     pub omega: f64,
@@ -255,6 +266,7 @@ pub struct StructuredMargin {
 /// The curves behind the margins, on the grid.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Curves {
+    /// The grid's frequencies, rad/s.
     pub omega: Vec<f64>,
     /// `T_k(jw)` of every channel, [`Channel::ALL`] order.
     pub t: Vec<[Complex64; 4]>,
@@ -265,15 +277,18 @@ pub struct Curves {
 /// What the check found.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RobustAnalysis {
+    /// What the controller is (its one-line description).
     pub controller: String,
     /// Closed-loop poles in the right half-plane without perturbation; `None`: a pole on the
     /// imaginary axis.
     pub unstable_poles: Option<usize>,
+    /// The uncertainty weights checked against.
     pub weights: Weights,
     /// One per weighted channel.
     pub channels: Vec<ChannelMargin>,
     /// `None` without any weight.
     pub structured: Option<StructuredMargin>,
+    /// The curves behind the margins.
     pub curves: Curves,
 }
 
@@ -453,6 +468,7 @@ pub fn analyse_model(
 }
 
 impl RobustAnalysis {
+    /// Whether the unperturbed loop is stable: no closed-loop pole in the right half-plane nor on the imaginary axis.
     pub fn nominally_stable(&self) -> bool {
         self.unstable_poles == Some(0)
     }

@@ -27,6 +27,7 @@ use std::marker::PhantomData;
 
 /// What a `zmp-fmi3-*` crate compiles in.
 pub trait Baked: 'static {
+    /// Which FMU the crate is: the plant or the controller.
     const KIND: Kind;
     /// The model file's text.
     const MODEL_TOML: &'static str;

@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! FMU logic shared by the FMI 2.0 shell (`zmp-fmu`) and the FMI 3.0 shells
 //! (`zmp-fmi3-plant`, `zmp-fmi3-controller`), and the packaging used by `cargo xtask fmu`.
 //!

@@ -51,11 +51,14 @@ pub const GRID_TOL: f64 = 1e-6;
 /// The internal time grid `t_n = t0 + n h`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Grid {
+    /// Start time of the grid, s.
     pub t0: f64,
+    /// Internal step, s.
     pub h: f64,
 }
 
 impl Grid {
+    /// Time of grid point `n`, s.
     #[inline]
     pub fn time(&self, n: u64) -> f64 {
         self.t0 + n as f64 * self.h
@@ -159,6 +162,7 @@ impl Slave {
         Slave::from_spec(kind, spec)
     }
 
+    /// A new instance of `kind` for a parsed model file (the error names what cannot be built).
     pub fn from_spec(kind: Kind, spec: ModelSpec) -> Result<Slave, String> {
         let table = VarTable::new(kind, &spec)?;
         let param_slots = spec
@@ -210,14 +214,17 @@ impl Slave {
         })
     }
 
+    /// Which FMU this instance is.
     pub fn kind(&self) -> Kind {
         self.table.kind
     }
 
+    /// The instance's variables: names, value references, units, bounds.
     pub fn table(&self) -> &VarTable {
         &self.table
     }
 
+    /// Whether initialisation mode has ended (`fmi*ExitInitializationMode`).
     pub fn is_initialized(&self) -> bool {
         self.initialized
     }

@@ -4,9 +4,13 @@
 /// Exponents of the SI base units (and rad) of one unit; all zero for "1".
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct BaseUnit {
+    /// Exponent of the kilogram.
     pub kg: i32,
+    /// Exponent of the metre.
     pub m: i32,
+    /// Exponent of the second.
     pub s: i32,
+    /// Exponent of the radian.
     pub rad: i32,
 }
 

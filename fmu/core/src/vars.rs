@@ -30,13 +30,17 @@ pub enum Kind {
 /// FMI version of a shell.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum FmiVersion {
+    /// FMI 2.0.
     V2,
+    /// FMI 3.0.
     V3,
 }
 
 impl Kind {
+    /// Every kind, in the order the FMUs are built.
     pub const ALL: [Kind; 3] = [Kind::Plant, Kind::Controller, Kind::Passthrough];
 
+    /// The kind's short name (`plant`, `controller`, `passthrough`).
     pub fn name(self) -> &'static str {
         match self {
             Kind::Plant => "plant",
@@ -71,6 +75,7 @@ impl Kind {
         crate::guid::guid(&self.flavour(fmi), model_toml)
     }
 
+    /// The model description's `description` of the kind's FMU.
     pub fn description(self) -> &'static str {
         match self {
             Kind::Plant => {
@@ -100,14 +105,19 @@ impl Kind {
     }
 }
 
+/// The FMI causality of a variable.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Causality {
+    /// Set by the importer before or between steps; the FMU never changes it.
     Parameter,
+    /// Set by the importer at communication points; drives the step.
     Input,
+    /// Computed by the FMU; read by the importer.
     Output,
 }
 
 impl Causality {
+    /// The causality as written in modelDescription.xml.
     pub fn as_str(self) -> &'static str {
         match self {
             Causality::Parameter => "parameter",
@@ -117,14 +127,19 @@ impl Causality {
     }
 }
 
+/// The FMI variability of a variable.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Variability {
+    /// Set only before initialisation ends.
     Fixed,
+    /// Changes only at communication points (sampled signals).
     Discrete,
+    /// Changes continuously over a step.
     Continuous,
 }
 
 impl Variability {
+    /// The variability as written in modelDescription.xml.
     pub fn as_str(self) -> &'static str {
         match self {
             Variability::Fixed => "fixed",
@@ -137,14 +152,23 @@ impl Variability {
 /// Parameters of the controller FMU.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CtrlParam {
+    /// Integral gain of C1 = K1/s, rad/s (trunk angle rate per error unit).
     K1,
+    /// Corner frequency of the lag C2 = K2/(s + K2), rad/s.
     K2,
+    /// Error units per metre of ZMP error, 1/m (100: centimetres).
     ErrorScale,
+    /// Trunk mass over robot mass m_t/m_r, dimensionless.
     MassRatio,
+    /// Trunk length l_t, m.
     TrunkLength,
+    /// Lower trunk angle limit (anti-windup clamp), rad.
     ThetaMin,
+    /// Upper trunk angle limit (anti-windup clamp), rad.
     ThetaMax,
+    /// Lateral (x) CoM reference at zero trunk angle, m.
     OffsetX,
+    /// Sagittal (y) CoM reference at zero trunk angle, m.
     OffsetY,
 }
 
@@ -159,26 +183,35 @@ pub enum Role {
     Step,
     /// Model-file parameter number `i` of [`ModelSpec::parameters`].
     ModelParam(usize),
+    /// A parameter of the controller FMU.
     Controller(CtrlParam),
 }
 
 /// One variable of an FMU.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Var {
+    /// The variable's name in modelDescription.xml.
     pub name: String,
+    /// Value reference: the handle the importer gets and sets it by.
     pub vr: u32,
+    /// Who sets it: the importer (parameter, input) or the FMU (output).
     pub causality: Causality,
+    /// When it may change.
     pub variability: Variability,
+    /// Its unit, as written in the model description ("1": dimensionless).
     pub unit: &'static str,
+    /// What it is, for the importer's user.
     pub description: String,
     /// Start value: written to the model description for parameters and inputs; for outputs
     /// the value at rest before initialisation.
     pub start: f64,
-    /// Inclusive bounds accepted by the setter (infinite: none).
+    /// Inclusive lower bound accepted by the setter (infinite: none).
     pub min: f64,
+    /// Inclusive upper bound accepted by the setter (infinite: none).
     pub max: f64,
     /// The value must be a whole number (random seeds).
     pub whole: bool,
+    /// What the variable is for the shells, for dispatch.
     pub role: Role,
 }
 
@@ -200,10 +233,12 @@ impl Var {
         Ok(())
     }
 
+    /// Whether the variable has a finite lower bound (written as `min`).
     pub fn has_min(&self) -> bool {
         self.min.is_finite()
     }
 
+    /// Whether the variable has a finite upper bound (written as `max`).
     pub fn has_max(&self) -> bool {
         self.max.is_finite()
     }
@@ -212,11 +247,15 @@ impl Var {
 /// The variables of one FMU kind for one model.
 #[derive(Debug, Clone)]
 pub struct VarTable {
+    /// The FMU the table belongs to.
     pub kind: Kind,
+    /// The variables: the kind's fixed ones, then the model-file parameters.
     pub vars: Vec<Var>,
     /// Variables `0..n_fixed` have value reference = index.
     n_fixed: usize,
+    /// Number of inputs of the kind.
     pub n_inputs: usize,
+    /// Number of outputs of the kind.
     pub n_outputs: usize,
 }
 
@@ -273,6 +312,7 @@ impl VarTable {
         }
     }
 
+    /// The variable called `name`, if any.
     pub fn by_name(&self, name: &str) -> Option<&Var> {
         self.vars.iter().find(|v| v.name == name)
     }

@@ -12,6 +12,7 @@ use nalgebra::DMatrix;
 /// The chosen postures (candidate indices, in the order chosen) and the design's figures.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DesignChoice {
+    /// Indices of the chosen candidate postures, in the order chosen.
     pub chosen: Vec<usize>,
     /// `log det` of the summed information.
     pub log_det: f64,

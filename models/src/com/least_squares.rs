@@ -25,6 +25,7 @@ pub struct NoiseModel {
 }
 
 impl NoiseModel {
+    /// Whether the model has no noise at all (an exact fit; no weighting possible).
     pub fn is_zero(&self) -> bool {
         self.force_std_n == 0.0 && self.moment_std_nm == 0.0 && self.tilt_std_rad == 0.0
     }

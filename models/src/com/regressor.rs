@@ -92,7 +92,9 @@ pub struct CalibrationPosture {
 /// The estimator's fixed inputs.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RegressorModel {
+    /// The two soles' geometry from the CAD model (0 left, 1 right).
     pub soles: [SoleCad; 2],
+    /// The measurement noise the postures are weighted by.
     pub noise: NoiseModel,
     /// Estimate the 12 offsets jointly (else they are taken as zero).
     pub estimate_offsets: bool,
@@ -105,19 +107,23 @@ pub struct RegressorModel {
 pub struct RegressorEstimate {
     /// The unknowns in [`UNKNOWN_NAMES`] order (the first 4 only without offsets).
     pub theta: DVector<f64>,
+    /// Covariance of `theta` (units of the unknowns squared).
     pub covariance: DMatrix<f64>,
     /// Of the whitened system with unit-norm columns.
     pub condition_number: f64,
     /// Sum of squared whitened residuals and its degrees of freedom.
     pub chi2: f64,
+    /// Degrees of freedom of `chi2`: equations minus unknowns.
     pub dof: usize,
 }
 
 impl RegressorEstimate {
+    /// The estimated mass error (kg): true mass minus the CAD model's.
     pub fn error_mass_kg(&self) -> f64 {
         self.theta[0]
     }
 
+    /// The estimated error of the first moment of mass (kg m): the CoM error times the mass.
     pub fn error_first_moment(&self) -> Vec3 {
         Vec3::new(self.theta[1], self.theta[2], self.theta[3])
     }

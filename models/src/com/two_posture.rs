@@ -86,7 +86,9 @@ pub fn intersect(a: &PostureLines, b: &PostureLines, min_slope_gap: f64) -> Resu
 /// A mass and its centre (kg, m) from the CAD model.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CadCom {
+    /// Mass, kg.
     pub mass_kg: f64,
+    /// Centre of mass in the calibration frame, m.
     pub com: Vec3,
 }
 

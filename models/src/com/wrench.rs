@@ -6,36 +6,67 @@ use super::{skew, Mat3, Vec3};
 /// What the CoM calculation refuses, and why.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ComError {
+    /// An input is NaN or infinite.
     #[error("{what} is not a finite number")]
-    NonFinite { what: String },
+    NonFinite {
+        /// Which input.
+        what: String,
+    },
     #[error(
         "the {foot} foot carries {normal_force_n:.3} N, below the {min_n:.3} N the calculation \
          needs: both feet must be loaded (is the foot lifted or the sensor unplugged?)"
     )]
+    /// A foot presses on its sensor with less than the least load that counts as standing.
     UnloadedFoot {
+        /// "left" or "right".
         foot: &'static str,
+        /// The force along the sensor's z axis, N.
         normal_force_n: f64,
+        /// The least load that counts as standing, N.
         min_n: f64,
     },
     #[error(
         "postures {a} and {b} are too close to separate Z: their slopes differ by {gap:.3e} \
          (tan of the tilt difference), at least {min:.3e} is needed"
     )]
+    /// Two postures tilt the body too little apart to separate the CoM's height.
     PosturesTooClose {
+        /// Index of the first posture.
         a: usize,
+        /// Index of the second posture.
         b: usize,
+        /// Difference of their slopes (tan of the tilt difference), dimensionless.
         gap: f64,
+        /// The least difference that separates them, dimensionless.
         min: f64,
     },
+    /// Fewer postures than the estimator has unknowns to determine.
     #[error("need at least {need} postures, got {got}")]
-    TooFewPostures { need: usize, got: usize },
+    TooFewPostures {
+        /// The postures the estimator needs.
+        need: usize,
+        /// The postures given.
+        got: usize,
+    },
     #[error(
         "the postures do not determine {what}: the stacked system's condition number is \
          {condition:.3e} (tilt the body in more than one way, or unload each foot once)"
     )]
-    Singular { what: String, condition: f64 },
+    /// The postures leave a combination of the unknowns undetermined.
+    Singular {
+        /// The unknowns not determined.
+        what: String,
+        /// Condition number of the stacked system.
+        condition: f64,
+    },
+    /// A quantity that must be positive (a mass, a noise level) is not.
     #[error("{what} must be positive, got {value}")]
-    NotPositive { what: String, value: f64 },
+    NotPositive {
+        /// Which quantity.
+        what: String,
+        /// Its value, in its unit.
+        value: f64,
+    },
 }
 
 /// A force (N) and a moment (N m) about a stated point.
@@ -48,14 +79,17 @@ pub struct Wrench {
 }
 
 impl Wrench {
+    /// The wrench of `force` (N) and `moment` (N m).
     pub fn new(force: Vec3, moment: Vec3) -> Wrench {
         Wrench { force, moment }
     }
 
+    /// No force and no moment.
     pub fn zero() -> Wrench {
         Wrench::new(Vec3::zeros(), Vec3::zeros())
     }
 
+    /// Whether every component is a finite number.
     pub fn is_finite(&self) -> bool {
         self.force
             .iter()
@@ -75,6 +109,7 @@ impl Wrench {
         Wrench::new(self.force, self.moment + at.cross(&self.force))
     }
 
+    /// The components in the order fx, fy, fz, mx, my, mz (N, N m).
     pub fn as_array(&self) -> [f64; 6] {
         [
             self.force.x,
@@ -86,6 +121,7 @@ impl Wrench {
         ]
     }
 
+    /// The wrench of components fx, fy, fz, mx, my, mz (N, N m).
     pub fn from_array(v: [f64; 6]) -> Wrench {
         Wrench::new(Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5]))
     }
@@ -140,14 +176,18 @@ impl SensorReading {
 /// The axis about which a joint's moment acts in the seed's eq. 7 sums.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum JointAxis {
+    /// Roll joints: summed into `M_X2`, the x component of the calibration frame.
     Roll,
+    /// Pitch joints: summed into `M_Y2`, the y component.
     Pitch,
+    /// Yaw joints: summed into `M_Z2`, the z component.
     Yaw,
 }
 
 /// A motor's torque constant and measured current.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MotorCurrent {
+    /// The axis the joint's moment acts about.
     pub axis: JointAxis,
     /// Torque constant including the gear ratio (N m / A).
     pub torque_constant_nm_per_a: f64,
@@ -189,13 +229,16 @@ pub fn joint_moments(currents: &[MotorCurrent]) -> Result<Vec3, ComError> {
 /// passes zero. A test shows what a non-zero `M_2` does to the estimate.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PostureWrench {
+    /// The left ankle sensor's reading.
     pub left: SensorReading,
+    /// The right ankle sensor's reading.
     pub right: SensorReading,
     /// The seed's `M_2` (N m) in the calibration frame.
     pub extra_moment: Vec3,
 }
 
 impl PostureWrench {
+    /// The posture of the two readings with no extra moment (`M_2 = 0`).
     pub fn new(left: SensorReading, right: SensorReading) -> PostureWrench {
         PostureWrench {
             left,

@@ -15,6 +15,7 @@ use crate::effects::servo::{part_harmonics, ServoPart};
 use crate::effects::servo_link::{joint_response, TrunkLink};
 use num_complex::Complex64;
 
+/// The parameters of the acceleration saturation, in model-file order.
 pub static PARAMS: [ParamSpec; 2] = [
     ParamSpec::required(
         "limit",
@@ -33,6 +34,7 @@ pub static PARAMS: [ParamSpec; 2] = [
     ),
 ];
 
+/// The acceleration saturation's entry in the effect registry.
 pub static INFO: EffectInfo = EffectInfo {
     kind: crate::EffectKind::AccelerationSaturation,
     title: "acceleration saturation",
@@ -45,8 +47,10 @@ pub static INFO: EffectInfo = EffectInfo {
     build,
 };
 
+/// The servo's force limit, as the largest CoM acceleration it allows.
 #[derive(Debug, Clone)]
 pub struct AccelerationSaturation {
+    /// Largest CoM acceleration the servo's force gives, m/s².
     pub limit: f64,
     /// Viscous damping outside the limit, 1/s.
     pub passive_damping: f64,

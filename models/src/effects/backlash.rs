@@ -25,6 +25,7 @@ use crate::effects::tracking_lowpass::TrackingLowpass;
 use num_complex::Complex64;
 use std::f64::consts::PI;
 
+/// The parameters of the backlash, in model-file order.
 pub static PARAMS: [ParamSpec; 6] = [
     ParamSpec::required(
         "width",
@@ -85,6 +86,7 @@ fn validate(v: &[f64]) -> Result<(), (usize, String)> {
     )
 }
 
+/// The backlash's entry in the effect registry.
 pub static INFO: EffectInfo = EffectInfo {
     kind: crate::EffectKind::Backlash,
     title: "backlash (dead band)",
@@ -148,13 +150,16 @@ impl Effect for PlayInServo {
     }
 }
 
+/// The play operator on the CoM command (the `in_servo = 0` law).
 #[derive(Debug, Clone)]
 pub struct Backlash {
+    /// Total width of the play, m.
     pub width: f64,
     y: f64,
 }
 
 impl Backlash {
+    /// A play of total `width` (m), its output at zero.
     pub fn new(width: f64) -> Backlash {
         Backlash { width, y: 0.0 }
     }

@@ -14,6 +14,7 @@ use num_complex::Complex64;
 /// Default regularisation speed, m/s.
 pub const DEFAULT_V_S: f64 = 1e-4;
 
+/// The parameters of the Coulomb friction, in model-file order.
 pub static PARAMS: [ParamSpec; 2] = [
     ParamSpec::required(
         "level",
@@ -32,6 +33,7 @@ pub static PARAMS: [ParamSpec; 2] = [
     ),
 ];
 
+/// The Coulomb friction's entry in the effect registry.
 pub static INFO: EffectInfo = EffectInfo {
     kind: crate::EffectKind::CoulombFriction,
     title: "Coulomb friction in the servo",
@@ -44,8 +46,10 @@ pub static INFO: EffectInfo = EffectInfo {
     build,
 };
 
+/// The regularised Coulomb friction acting in the servo.
 #[derive(Debug, Clone)]
 pub struct CoulombFriction {
+    /// The friction force as the CoM deceleration it causes, m/s².
     pub level: f64,
     /// Regularisation speed, m/s.
     pub v_s: f64,
@@ -57,6 +61,7 @@ pub struct CoulombFriction {
 }
 
 impl CoulombFriction {
+    /// The friction of `level` (m/s²) and transition speed `v_s` (m/s) in the servo `(omega_n rad/s, zeta)` stepped at `h` (s).
     pub fn new(level: f64, v_s: f64, servo: (f64, f64), h: f64) -> CoulombFriction {
         CoulombFriction {
             level,

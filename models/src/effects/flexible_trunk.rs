@@ -24,6 +24,7 @@ use crate::effect::{check_switch, BuildContext, Effect, EffectInfo, ParamSpec, S
 use crate::lti::{Poly, TransferFunction};
 use crate::lti_effect::LtiEffect;
 
+/// The parameters of the flexible trunk, in model-file order.
 pub static PARAMS: [ParamSpec; 5] = [
     ParamSpec::required("omega_n", "rad/s", 0.1, 2000.0, "mode of the flexible link"),
     ParamSpec::required("zeta", "1", 1e-3, 1.0, "damping ratio of the flexible link"),
@@ -63,6 +64,7 @@ fn validate(v: &[f64]) -> Result<(), (usize, String)> {
     )
 }
 
+/// The flexible trunk's entry in the effect registry.
 pub static INFO: EffectInfo = EffectInfo {
     kind: crate::EffectKind::FlexibleTrunk,
     title: "flexible trunk (a share of the mass on a flexible link, in the servo loop)",

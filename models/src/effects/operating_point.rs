@@ -16,6 +16,7 @@
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
 use num_complex::Complex64;
 
+/// The parameters of the operating-point dependence, in model-file order.
 pub static PARAMS: [ParamSpec; 4] = [
     ParamSpec::optional(
         "da_dx",
@@ -51,6 +52,7 @@ pub static PARAMS: [ParamSpec; 4] = [
     ),
 ];
 
+/// The operating-point dependence's entry in the effect registry.
 pub static INFO: EffectInfo = EffectInfo {
     kind: crate::EffectKind::OperatingPointDependence,
     title: "operating-point dependence",
@@ -63,9 +65,12 @@ pub static INFO: EffectInfo = EffectInfo {
     build,
 };
 
+/// The slopes of the pendulum coefficients over the CoM position.
 #[derive(Debug, Clone, Copy)]
 pub struct OperatingPointDependence {
+    /// Relative change of every `a_ij` per metre of CoM position along x and y, 1/m.
     pub da: [f64; 2],
+    /// Relative change of every `b_ij` per metre of CoM position along x and y, 1/m.
     pub db: [f64; 2],
 }
 

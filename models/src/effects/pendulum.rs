@@ -11,6 +11,7 @@ use num_complex::Complex64;
 const A_DOC: &str = "static gain from CoM reference to ZMP (m/m)";
 const B_DOC: &str = "pendulum coefficient, ZMP = a x_c - b x_c'' (s^2)";
 
+/// The parameters of the pendulum (`a11` .. `b22`), in model-file order.
 pub static PARAMS: [ParamSpec; 8] = [
     ParamSpec::required("a11", "1", -10.0, 10.0, A_DOC),
     ParamSpec::required("a12", "1", -10.0, 10.0, A_DOC),
@@ -22,6 +23,7 @@ pub static PARAMS: [ParamSpec; 8] = [
     ParamSpec::required("b22", "s2", -10.0, 10.0, B_DOC),
 ];
 
+/// The pendulum's entry in the effect registry.
 pub static INFO: EffectInfo = EffectInfo {
     kind: crate::EffectKind::Pendulum,
     title: "equivalent inverted pendulum a - b s^2",
@@ -37,7 +39,9 @@ pub static INFO: EffectInfo = EffectInfo {
 /// The eight coefficients, `a[i][j]`, `b[i][j]` with `i` the output and `j` the input axis.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pendulum {
+    /// Static gains `a_ij` from CoM to ZMP, dimensionless (row: ZMP axis, column: CoM axis).
     pub a: [[f64; 2]; 2],
+    /// Acceleration coefficients `b_ij`, s² (the pendulum height over gravity on the diagonal).
     pub b: [[f64; 2]; 2],
 }
 

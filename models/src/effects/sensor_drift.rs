@@ -4,11 +4,13 @@
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
 use num_complex::Complex64;
 
+/// The parameters of the sensor drift, in model-file order.
 pub static PARAMS: [ParamSpec; 2] = [
     ParamSpec::optional("offset", "m", -1.0, 1.0, 0.0, "constant ZMP sensor offset"),
     ParamSpec::optional("rate", "m/s", -0.1, 0.1, 0.0, "ZMP sensor drift rate"),
 ];
 
+/// The sensor drift's entry in the effect registry.
 pub static INFO: EffectInfo = EffectInfo {
     kind: crate::EffectKind::SensorDrift,
     title: "ZMP sensor offset and drift",
@@ -21,9 +23,12 @@ pub static INFO: EffectInfo = EffectInfo {
     build,
 };
 
+/// An offset and a linear drift added to the measured ZMP.
 #[derive(Debug, Clone)]
 pub struct SensorDrift {
+    /// Constant offset of the measured ZMP, m.
     pub offset: f64,
+    /// Drift rate of the measured ZMP, m/s.
     pub rate: f64,
     h: f64,
     steps: u64,

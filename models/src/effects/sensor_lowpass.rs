@@ -5,6 +5,7 @@ use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
 use crate::lti::{Poly, TransferFunction};
 use crate::lti_effect::LtiEffect;
 
+/// The parameters of the sensor low-pass, in model-file order.
 pub static PARAMS: [ParamSpec; 1] = [ParamSpec::required(
     "cutoff",
     "rad/s",
@@ -13,6 +14,7 @@ pub static PARAMS: [ParamSpec; 1] = [ParamSpec::required(
     "corner frequency of the ZMP sensor filter",
 )];
 
+/// The sensor low-pass's entry in the effect registry.
 pub static INFO: EffectInfo = EffectInfo {
     kind: crate::EffectKind::SensorLowpass,
     title: "ZMP sensor low-pass",
@@ -25,6 +27,7 @@ pub static INFO: EffectInfo = EffectInfo {
     build,
 };
 
+/// The low-pass `wc/(s + wc)` of corner `cutoff` (rad/s).
 pub fn tf(cutoff: f64) -> TransferFunction {
     TransferFunction::new(Poly::new(&[cutoff]), Poly::new(&[cutoff, 1.0]))
 }

@@ -75,6 +75,7 @@ const ACCURATE_RATE_FACTOR: f64 = 4.0;
 /// loop, and the link's state (the joint's is the servo's own `x`, `v`).
 #[derive(Debug, Clone)]
 pub struct Linked {
+    /// The link's parameters.
     pub link: TrunkLink,
     /// Link's part of the axis's inertia.
     u: f64,
@@ -98,11 +99,14 @@ pub struct Linked {
     /// Exact steps of the link's part alone over a step and over half a step, the joint
     /// moving at a constant velocity (the stuck servo's creep).
     follow: [Follow; 2],
+    /// Position of the link's part (above the link), m.
     pub xu: f64,
+    /// Velocity of the link's part, m/s.
     pub vu: f64,
 }
 
 impl Linked {
+    /// The chain of `link` on a servo of `wn2 = omega_n²` (1/s²) and `two_zeta_wn = 2 zeta omega_n` (1/s), stepped at `h` (s), at rest.
     pub fn new(link: TrunkLink, wn2: f64, two_zeta_wn: f64, h: f64) -> Linked {
         let u = (link.share * (1.0 - link.drive)).min(1.0 - MIN_JOINT_INERTIA);
         let inv_joint = 1.0 / (1.0 - u);

@@ -10,6 +10,7 @@ use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
 use crate::lti::{Poly, TransferFunction};
 use crate::lti_effect::LtiEffect;
 
+/// The parameters of the structural mode, in model-file order.
 pub static PARAMS: [ParamSpec; 3] = [
     ParamSpec::required("omega_n", "rad/s", 0.1, 2000.0, "mode frequency"),
     ParamSpec::required("zeta", "1", 1e-3, 1.0, "mode damping ratio"),
@@ -23,6 +24,7 @@ pub static PARAMS: [ParamSpec; 3] = [
     ),
 ];
 
+/// The structural mode's entry in the effect registry.
 pub static INFO: EffectInfo = EffectInfo {
     kind: crate::EffectKind::StructuralMode,
     title: "structural mode (lightly damped resonance)",
@@ -35,6 +37,7 @@ pub static INFO: EffectInfo = EffectInfo {
     build,
 };
 
+/// The whole-path mode `wn²/(s² + 2 zeta wn s + wn²)` at `omega_n` (rad/s) with damping `zeta`.
 pub fn tf(omega_n: f64, zeta: f64) -> TransferFunction {
     tf_shared(omega_n, zeta, 1.0)
 }

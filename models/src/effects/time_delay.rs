@@ -10,6 +10,7 @@ use num_complex::Complex64;
 /// Upper bound of the delay; the ring buffer is sized from it once, at build time.
 pub const MAX_DELAY_S: f64 = 0.5;
 
+/// The parameters of the time delay, in model-file order.
 pub static PARAMS: [ParamSpec; 1] = [ParamSpec::required(
     "delay",
     "s",
@@ -18,6 +19,7 @@ pub static PARAMS: [ParamSpec; 1] = [ParamSpec::required(
     "transport delay of the CoM reference",
 )];
 
+/// The time delay's entry in the effect registry.
 pub static INFO: EffectInfo = EffectInfo {
     kind: crate::EffectKind::TimeDelay,
     title: "pure time delay",
@@ -30,8 +32,10 @@ pub static INFO: EffectInfo = EffectInfo {
     build,
 };
 
+/// The delay line of the CoM command.
 #[derive(Debug, Clone)]
 pub struct TimeDelay {
+    /// The delay, s.
     pub delay: f64,
     /// The input at each stored step: its value at the step's end (left limit).
     buf: Vec<f64>,
@@ -43,6 +47,7 @@ pub struct TimeDelay {
 }
 
 impl TimeDelay {
+    /// A delay of `delay` (s) on a plant stepped at `h` (s), its line at zero.
     pub fn new(delay: f64, h: f64) -> TimeDelay {
         let steps = delay / h;
         // A delay within rounding of a whole number of steps is that number.

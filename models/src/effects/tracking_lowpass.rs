@@ -8,6 +8,7 @@ use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
 use crate::lti::{Poly, TransferFunction};
 use num_complex::Complex64;
 
+/// The parameters of the tracking low-pass, in model-file order.
 pub static PARAMS: [ParamSpec; 2] = [
     ParamSpec::required(
         "omega_n",
@@ -25,6 +26,7 @@ pub static PARAMS: [ParamSpec; 2] = [
     ),
 ];
 
+/// The tracking low-pass's entry in the effect registry.
 pub static INFO: EffectInfo = EffectInfo {
     kind: crate::EffectKind::TrackingLowpass,
     title: "tracking low-pass wn^2/(s^2+2 zeta wn s+wn^2)",
@@ -59,13 +61,17 @@ fn validate(v: &[f64]) -> Result<(), (usize, String)> {
     Ok(())
 }
 
+/// The servo's linear tracking law `H(s)` of one input axis.
 #[derive(Debug, Clone, Copy)]
 pub struct TrackingLowpass {
+    /// Natural frequency `wn`, rad/s.
     pub omega_n: f64,
+    /// Damping ratio `zeta`, dimensionless.
     pub zeta: f64,
 }
 
 impl TrackingLowpass {
+    /// The transfer function `H(s)` from CoM reference to CoM.
     pub fn tf(&self) -> TransferFunction {
         let w2 = self.omega_n * self.omega_n;
         TransferFunction::new(

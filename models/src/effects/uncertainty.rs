@@ -16,6 +16,7 @@ use crate::lti_effect::LtiEffect;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+/// The parameters of the channel uncertainty, in model-file order.
 pub static PARAMS: [ParamSpec; 5] = [
     ParamSpec::required("k", "1", 0.0, 1e3, "high-frequency gain of the weight W"),
     ParamSpec::required("z", "rad/s", 0.0, 1e4, "zero of the weight W"),
@@ -44,6 +45,7 @@ pub static PARAMS: [ParamSpec; 5] = [
     ),
 ];
 
+/// The channel uncertainty's entry in the effect registry.
 pub static INFO: EffectInfo = EffectInfo {
     kind: crate::EffectKind::Uncertainty,
     title: "multiplicative uncertainty W(s) Delta(s)",

@@ -28,7 +28,9 @@ use num_complex::Complex64;
 /// by `pi`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Perturbation {
+    /// The channel perturbed.
     pub channel: Channel,
+    /// The perturbation's gain, dimensionless (`|delta| <= 1`: inside the weight).
     pub delta: f64,
     /// All-pass corner `q`, rad/s.
     pub allpass: Option<f64>,
@@ -65,6 +67,7 @@ impl Perturbation {
         }
     }
 
+    /// The perturbation's value at the complex frequency `s` (rad/s).
     pub fn at(&self, s: Complex64) -> Complex64 {
         match self.allpass {
             Some(q) => self.delta * (q - s) / (q + s),
@@ -72,6 +75,7 @@ impl Perturbation {
         }
     }
 
+    /// The perturbation as a transfer function.
     pub fn transfer_function(&self) -> TransferFunction {
         match self.allpass {
             Some(q) => TransferFunction::new(
@@ -143,6 +147,7 @@ impl PerturbedPlant {
         zmp
     }
 
+    /// The plants' fixed internal step, s.
     pub fn step_size(&self) -> f64 {
         self.nominal.step_size()
     }

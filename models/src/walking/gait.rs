@@ -10,15 +10,20 @@
 /// Left or right.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Side {
+    /// The left foot.
     Left,
+    /// The right foot.
     Right,
 }
 
 /// A foot's sole position (centre of the sole's bottom, m); soles stay level and face +x.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FootPose {
+    /// Forward position, m.
     pub x: f64,
+    /// Lateral position, m.
     pub y: f64,
+    /// Height, m.
     pub z: f64,
 }
 
@@ -64,14 +69,17 @@ impl Gait {
         }
     }
 
+    /// Duration of one step, s.
     pub fn step_s(&self) -> f64 {
         self.phase_s * self.phases_per_step as f64
     }
 
+    /// When the first step starts (after the still phases), s.
     pub fn start_s(&self) -> f64 {
         self.phase_s * self.still_phases as f64
     }
 
+    /// Duration of the whole walk, still phases at both ends included, s.
     pub fn duration_s(&self) -> f64 {
         self.phase_s * (2 * self.still_phases + self.phases_per_step * self.strides_m.len()) as f64
     }

@@ -48,6 +48,7 @@ impl PreviewParams {
 /// The gains and the running state of one axis.
 #[derive(Debug, Clone)]
 pub struct PreviewController {
+    /// The controller's design parameters.
     pub params: PreviewParams,
     a: Matrix3<f64>,
     b: Vector3<f64>,

@@ -85,6 +85,7 @@ impl TorsoParams {
 /// The controller's state.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TorsoControl {
+    /// The law's gains and limits.
     pub params: TorsoParams,
     filtered: [f64; 2],
     shift: [f64; 2],
@@ -92,6 +93,7 @@ pub struct TorsoControl {
 }
 
 impl TorsoControl {
+    /// The controller of `params`, at rest with no torso shift.
     pub fn new(params: TorsoParams) -> TorsoControl {
         TorsoControl {
             params,
@@ -168,6 +170,7 @@ pub struct EffortMeter {
 }
 
 impl EffortMeter {
+    /// An empty meter for control steps of `step_s` (s).
     pub fn new(step_s: f64) -> EffortMeter {
         EffortMeter {
             step_s,
@@ -175,6 +178,7 @@ impl EffortMeter {
         }
     }
 
+    /// Adds one control step's torso shift (m, x and y) and whether it was at its limit.
     pub fn push(&mut self, shift: [f64; 2], saturated: bool) {
         self.steps += 1;
         for c in 0..2 {
@@ -184,6 +188,7 @@ impl EffortMeter {
         self.saturated += saturated as usize;
     }
 
+    /// The effort of the steps pushed so far.
     pub fn effort(&self) -> Effort {
         let n = self.steps.max(1) as f64;
         let ms = [self.sum_sq[0] / n, self.sum_sq[1] / n];

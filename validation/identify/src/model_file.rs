@@ -10,7 +10,9 @@ fn fl(v: f64) -> toml::Value {
     toml::Value::Float(v)
 }
 
-/// Step 8: the model file.
+/// Step 8: the model file: the start model (the seed's paper model without one) with the
+/// identified pendulum, tracking low-pass, uncertainty weights and, when wanted, acceleration
+/// limit; their standard errors in `[stderr]` and where they came from in `[provenance]`.
 pub(super) fn build_model(
     ident: &Identification,
     opts: &IdentifyOptions,
@@ -32,14 +34,54 @@ pub(super) fn build_model(
         ident.used().count(),
         ident.records.len()
     ));
+    let se_pend = set_pendulum(&mut spec, ident, opts)?;
+    let lp = zmp_models::EffectKind::TrackingLowpass.info();
+    for axis in Axis::BOTH {
+        spec.insert(EffectInstance {
+            info: lp,
+            binding: Binding::Axis(axis),
+            values: vec![ident.bandwidth.omega_n, ident.bandwidth.zeta],
+        });
+    }
+    let unc = zmp_models::EffectKind::Uncertainty.info();
+    for (ch, cu) in Channel::ALL.iter().zip(&ident.uncertainty) {
+        let (k, z, p) = cu.weight;
+        spec.insert(EffectInstance {
+            info: unc,
+            binding: Binding::Channel(*ch),
+            values: vec![k, z, p, 0.0, 0.0],
+        });
+    }
+    let mut stderr = toml::Table::new();
+    stderr.insert(EffectKind::Pendulum.into(), toml::Value::Table(se_pend));
+    if ident.bandwidth.estimated {
+        let mut t = toml::Table::new();
+        t.insert("omega_n".into(), fl(ident.bandwidth.omega_n_stderr));
+        t.insert("zeta".into(), fl(ident.bandwidth.zeta_stderr));
+        stderr.insert(EffectKind::TrackingLowpass.into(), toml::Value::Table(t));
+    }
+    set_saturation(&mut spec, &mut stderr, ident, opts);
+    spec.stderr = stderr;
+    spec.provenance = provenance(ident, opts, name);
+    spec.validate("identified model")
+        .map_err(|e| IdentifyError::FitFailed(format!("the identified model is invalid: {e}")))?;
+    Ok(spec)
+}
+
+/// Puts the identified `a`, `b` into the pendulum of `spec` and returns their standard errors
+/// (the `[stderr.pendulum]` table). A coupling channel the start model leaves out (both its
+/// terms zero) stays out.
+fn set_pendulum(
+    spec: &mut ModelSpec,
+    ident: &Identification,
+    opts: &IdentifyOptions,
+) -> Result<toml::Table, IdentifyError> {
     let fail = |what: &str| IdentifyError::FitFailed(format!("cannot set {what} in the model"));
     let mut se_pend = toml::Table::new();
     let mut pendulum = spec.pendulum().ok_or_else(|| fail("the pendulum"))?;
     for (m, letter) in [(&ident.a, 'a'), (&ident.b, 'b')] {
         for (i, row) in m.iter().enumerate() {
             for (j, prm) in row.iter().enumerate() {
-                // A structure without a coupling channel (both terms zero in the model given)
-                // keeps it out.
                 let absent = i != j
                     && opts
                         .start_model
@@ -60,68 +102,59 @@ pub(super) fn build_model(
         }
     }
     spec.set_pendulum(&pendulum);
-    let lp = zmp_models::EffectKind::TrackingLowpass.info();
-    for axis in Axis::BOTH {
-        spec.insert(EffectInstance {
-            info: lp,
-            binding: Binding::Axis(axis),
-            values: vec![ident.bandwidth.omega_n, ident.bandwidth.zeta],
-        });
-    }
-    let unc = zmp_models::EffectKind::Uncertainty.info();
-    let mut se_unc = toml::Table::new();
-    for (ch, cu) in Channel::ALL.iter().zip(&ident.uncertainty) {
-        let (k, z, p) = cu.weight;
-        spec.insert(EffectInstance {
-            info: unc,
-            binding: Binding::Channel(*ch),
-            values: vec![k, z, p, 0.0, 0.0],
-        });
-        let _ = &mut se_unc;
-    }
-    let mut stderr = toml::Table::new();
-    stderr.insert(EffectKind::Pendulum.into(), toml::Value::Table(se_pend));
-    if ident.bandwidth.estimated {
-        let mut t = toml::Table::new();
-        t.insert("omega_n".into(), fl(ident.bandwidth.omega_n_stderr));
-        t.insert("zeta".into(), fl(ident.bandwidth.zeta_stderr));
-        stderr.insert(EffectKind::TrackingLowpass.into(), toml::Value::Table(t));
-    }
+    Ok(se_pend)
+}
+
+/// Puts the identified acceleration limit (m/s², clamped to [1e-3, 1e3]) on both axes of
+/// `spec` when the options or the start model want one, keeping a start model's other
+/// saturation parameters; its standard error goes into `stderr`.
+fn set_saturation(
+    spec: &mut ModelSpec,
+    stderr: &mut toml::Table,
+    ident: &Identification,
+    opts: &IdentifyOptions,
+) {
     let wants_limit = opts.include_saturation
         || opts
             .start_model
             .as_ref()
             .is_some_and(|m| m.has(EffectKind::AccelerationSaturation));
-    if let (Some(l), true) = (ident.saturation.limit, wants_limit) {
-        let sat = zmp_models::EffectKind::AccelerationSaturation.info();
-        for axis in Axis::BOTH {
-            // The limit is identified; a start model's other saturation parameters (its
-            // passive damping) are kept, as its other effects are.
-            let mut values = vec![l.clamp(1e-3, 1e3)];
-            if let Some(start) = opts.start_model.as_ref().and_then(|m| {
-                m.effects.iter().find(|e| {
-                    e.info.kind == EffectKind::AccelerationSaturation
-                        && e.binding == Binding::Axis(axis)
-                })
-            }) {
-                values.extend(start.values.iter().skip(1));
-            }
-            spec.insert(EffectInstance {
-                info: sat,
-                binding: Binding::Axis(axis),
-                values,
-            });
+    let (Some(l), true) = (ident.saturation.limit, wants_limit) else {
+        return;
+    };
+    let sat = zmp_models::EffectKind::AccelerationSaturation.info();
+    for axis in Axis::BOTH {
+        // The limit is identified; a start model's other saturation parameters (its
+        // passive damping) are kept, as its other effects are.
+        let mut values = vec![l.clamp(1e-3, 1e3)];
+        if let Some(start) = opts.start_model.as_ref().and_then(|m| {
+            m.effects.iter().find(|e| {
+                e.info.kind == EffectKind::AccelerationSaturation
+                    && e.binding == Binding::Axis(axis)
+            })
+        }) {
+            values.extend(start.values.iter().skip(1));
         }
-        if let Some(se) = ident.saturation.limit_stderr {
-            let mut t = toml::Table::new();
-            t.insert("limit".into(), fl(se));
-            stderr.insert(
-                EffectKind::AccelerationSaturation.into(),
-                toml::Value::Table(t),
-            );
-        }
+        spec.insert(EffectInstance {
+            info: sat,
+            binding: Binding::Axis(axis),
+            values,
+        });
     }
-    spec.stderr = stderr;
+    if let Some(se) = ident.saturation.limit_stderr {
+        let mut t = toml::Table::new();
+        t.insert("limit".into(), fl(se));
+        stderr.insert(
+            EffectKind::AccelerationSaturation.into(),
+            toml::Value::Table(t),
+        );
+    }
+}
+
+/// The `[provenance]` table: the campaign `name` and path, the records used and excluded,
+/// the date, the tool, the harmonics fitted, the reduced chi-squared and whether the
+/// bandwidth was estimated.
+fn provenance(ident: &Identification, opts: &IdentifyOptions, name: &str) -> toml::Table {
     let mut prov = toml::Table::new();
     prov.insert("campaign".into(), toml::Value::String(name.to_owned()));
     if let Some(p) = &opts.campaign_path {
@@ -161,10 +194,7 @@ pub(super) fn build_model(
             "given".into()
         }),
     );
-    spec.provenance = prov;
-    spec.validate("identified model")
-        .map_err(|e| IdentifyError::FitFailed(format!("the identified model is invalid: {e}")))?;
-    Ok(spec)
+    prov
 }
 
 /// Writes the model file through the one output path (`zmp_files`, kind model): atomically;

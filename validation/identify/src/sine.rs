@@ -162,36 +162,103 @@ fn fit_k<const S: usize, const K: usize>(
     ramps: Option<[f64; S]>,
 ) -> Option<Pass<S>> {
     let slope = mode == Mode::FrequencySlope;
+    let trend = mode == Mode::Trend;
     let n = signals.iter().map(|s| s.len()).min().unwrap_or(0);
     let m = 1 + 2 * K;
-    // r[j][a] = sum phi_a y_j; with `slope` also u = sum t phi_a y_j and v = sum t^2 phi_a y_j
-    // (signal-major, so the per-sample updates run over contiguous regressors); with the trend
-    // column ky[j] = sum k y_j.
-    let mut r = [[0.0f64; MAX_COLS]; S];
-    let mut u = [[0.0f64; MAX_COLS]; S];
-    let mut v = [[0.0f64; MAX_COLS]; S];
-    let mut yy = [0.0; S];
-    let mut ky = [0.0; S];
-    let taken_out = if slope { ramps } else { None };
-    match (slope, mode == Mode::Trend) {
-        (true, _) => accumulate::<S, K, true, false>(
-            signals, n, omega, dt, taken_out, &mut r, &mut u, &mut v, &mut yy, &mut ky,
-        ),
-        (false, true) => accumulate::<S, K, false, true>(
-            signals, n, omega, dt, None, &mut r, &mut u, &mut v, &mut yy, &mut ky,
-        ),
-        (false, false) => accumulate::<S, K, false, false>(
-            signals, n, omega, dt, None, &mut r, &mut u, &mut v, &mut yy, &mut ky,
-        ),
-    }
+    let sums = Sums::<S>::of::<K>(
+        signals,
+        n,
+        omega,
+        dt,
+        mode,
+        if slope { ramps } else { None },
+    );
     let theta = omega * dt;
     let g: Vec<[Complex64; 3]> = (0..=2 * K).map(|q| geometric_sums(n, theta, q)).collect();
+    let (normal, r_trend) = normal_equations::<S, K>(&g, n, &sums, trend);
+    let detrended_cost = match ramps {
+        Some(ramps) if trend => detrended_cost::<S>(&normal, m, &sums.r, &r_trend, &sums.yy, ramps),
+        _ => None,
+    };
+    let chol = normal.cholesky()?;
+    let (fit, xs) = solve_harmonics::<S, K>(&chol, &sums, &r_trend, n, dt, trend);
+    if !slope {
+        return Some(Pass {
+            fit,
+            d1: 0.0,
+            d2: 0.0,
+            detrended_cost,
+        });
+    }
+    let (d1, d2) = frequency_slopes::<S, K>(&g, dt, &sums, &xs, &chol);
+    Some(Pass {
+        fit,
+        d1,
+        d2,
+        detrended_cost: None,
+    })
+}
+
+/// The sums one pass over the samples accumulates: `r[j][a] = sum phi_a y_j`; with the
+/// frequency slope also `u = sum t phi_a y_j` and `v = sum t^2 phi_a y_j` (signal-major, so
+/// the per-sample updates run over contiguous regressors); with the trend column
+/// `ky[j] = sum k y_j`; and `yy[j] = sum y_j^2`.
+struct Sums<const S: usize> {
+    r: [[f64; MAX_COLS]; S],
+    u: [[f64; MAX_COLS]; S],
+    v: [[f64; MAX_COLS]; S],
+    yy: [f64; S],
+    ky: [f64; S],
+}
+
+impl<const S: usize> Sums<S> {
+    /// The sums over the first `n` samples of `signals` for `K` harmonics of `omega` (rad/s),
+    /// sample interval `dt` (s), less `taken_out` ramps (per sample) when given.
+    fn of<const K: usize>(
+        signals: [&[f64]; S],
+        n: usize,
+        omega: f64,
+        dt: f64,
+        mode: Mode,
+        taken_out: Option<[f64; S]>,
+    ) -> Sums<S> {
+        let mut s = Sums {
+            r: [[0.0f64; MAX_COLS]; S],
+            u: [[0.0f64; MAX_COLS]; S],
+            v: [[0.0f64; MAX_COLS]; S],
+            yy: [0.0; S],
+            ky: [0.0; S],
+        };
+        let (r, u, v, yy, ky) = (&mut s.r, &mut s.u, &mut s.v, &mut s.yy, &mut s.ky);
+        match (mode == Mode::FrequencySlope, mode == Mode::Trend) {
+            (true, _) => {
+                accumulate::<S, K, true, false>(signals, n, omega, dt, taken_out, r, u, v, yy, ky)
+            }
+            (false, true) => {
+                accumulate::<S, K, false, true>(signals, n, omega, dt, None, r, u, v, yy, ky)
+            }
+            (false, false) => {
+                accumulate::<S, K, false, false>(signals, n, omega, dt, None, r, u, v, yy, ky)
+            }
+        }
+        s
+    }
+}
+
+/// The normal matrix of DC and `K` harmonics over `n` samples from the geometric sums `g`
+/// and, with `trend`, the centred trend column `k - (n-1)/2` joined to it, with that
+/// column's right-hand sides `r_trend[j] = sum (k - c) y_j[k]` (zero without a trend).
+fn normal_equations<const S: usize, const K: usize>(
+    g: &[[Complex64; 3]],
+    n: usize,
+    sums: &Sums<S>,
+    trend: bool,
+) -> (nalgebra::DMatrix<f64>, [f64; S]) {
+    let m = 1 + 2 * K;
     let e0: Vec<Complex64> = g.iter().map(|g| g[0]).collect();
-    let trend = mode == Mode::Trend;
     let nf = n as f64;
     let c = (nf - 1.0) / 2.0;
     let mut normal = regressor_matrix(&e0, K);
-    // r_trend[j] = sum (k - c) y_j[k].
     let mut r_trend = [0.0; S];
     if trend {
         let mm = m + 1;
@@ -205,15 +272,25 @@ fn fit_k<const S: usize, const K: usize>(
             normal[(2 * h, m)] = z.re;
         }
         for j in 0..S {
-            r_trend[j] = ky[j] - c * r[j][0];
+            r_trend[j] = sums.ky[j] - c * sums.r[j][0];
         }
     }
-    let detrended_cost = match ramps {
-        Some(ramps) if trend => detrended_cost::<S>(&normal, m, &r, &r_trend, &yy, ramps),
-        _ => None,
-    };
-    let cols = normal.nrows();
-    let chol = normal.cholesky()?;
+    (normal, r_trend)
+}
+
+/// Solves the normal equations (factored in `chol`) for every signal: the fit, and each
+/// signal's coefficient vector (DC, then sin and cos of each harmonic, then the trend).
+fn solve_harmonics<const S: usize, const K: usize>(
+    chol: &nalgebra::Cholesky<f64, nalgebra::Dyn>,
+    sums: &Sums<S>,
+    r_trend: &[f64; S],
+    n: usize,
+    dt: f64,
+    trend: bool,
+) -> (HarmonicFit<S>, Vec<nalgebra::DVector<f64>>) {
+    let m = 1 + 2 * K;
+    let nf = n as f64;
+    let cols = chol.l_dirty().nrows();
     let unit = |a: usize| {
         let mut e = nalgebra::DVector::zeros(cols);
         e[a] = 1.0;
@@ -230,10 +307,10 @@ fn fit_k<const S: usize, const K: usize>(
     for j in 0..S {
         let rj = nalgebra::DVector::from_iterator(
             cols,
-            (0..cols).map(|a| if a < m { r[j][a] } else { r_trend[j] }),
+            (0..cols).map(|a| if a < m { sums.r[j][a] } else { r_trend[j] }),
         );
         let x = chol.solve(&rj);
-        rss[j] = (yy[j] - x.dot(&rj)).max(0.0);
+        rss[j] = (sums.yy[j] - x.dot(&rj)).max(0.0);
         noise_var[j] = rss[j] / (nf - cols as f64).max(1.0);
         harmonics[j] = (0..K)
             .map(|h| Complex64::new(x[1 + 2 * h], x[2 + 2 * h]))
@@ -248,21 +325,27 @@ fn fit_k<const S: usize, const K: usize>(
         harmonics,
         noise_var,
         rss,
-        yy,
+        yy: sums.yy,
         dc: dcs,
         trend: trends,
         inv_diag_h1,
         inv_diag_trend,
         n,
     };
-    if !slope {
-        return Some(Pass {
-            fit,
-            d1: 0.0,
-            d2: 0.0,
-            detrended_cost,
-        });
-    }
+    (fit, xs)
+}
+
+/// The first and second derivative in the frequency of the cost summed over the signals
+/// (each relative to its `yy`), from the geometric sums `g`, the sums `u`, `v` and the
+/// solutions `xs` of the normal equations factored in `chol`.
+fn frequency_slopes<const S: usize, const K: usize>(
+    g: &[[Complex64; 3]],
+    dt: f64,
+    sums: &Sums<S>,
+    xs: &[nalgebra::DVector<f64>],
+    chol: &nalgebra::Cholesky<f64, nalgebra::Dyn>,
+) -> (f64, f64) {
+    let m = 1 + 2 * K;
     // d/domega of sum_k e^{i q omega dt k} is i q dt G_1(q); the second derivative
     // -(q dt)^2 G_2(q).
     let e1: Vec<Complex64> = (0..=2 * K)
@@ -283,25 +366,20 @@ fn fit_k<const S: usize, const K: usize>(
         for h in 1..=K {
             let (sa, ca) = (2 * h - 1, 2 * h);
             let hf = h as f64;
-            r1[sa] = hf * u[j][ca];
-            r1[ca] = -hf * u[j][sa];
-            r2[sa] = -hf * hf * v[j][sa];
-            r2[ca] = -hf * hf * v[j][ca];
+            r1[sa] = hf * sums.u[j][ca];
+            r1[ca] = -hf * sums.u[j][sa];
+            r2[sa] = -hf * hf * sums.v[j][sa];
+            r2[ca] = -hf * hf * sums.v[j][ca];
         }
         let m1x = &m1 * x;
         let gj = &r1 - &m1x;
         let f1 = 2.0 * r1.dot(x) - x.dot(&m1x);
         let f2 = 2.0 * r2.dot(x) - x.dot(&(&m2 * x)) + 2.0 * gj.dot(&chol.solve(&gj));
-        let scale = yy[j].max(1e-300);
+        let scale = sums.yy[j].max(1e-300);
         d1 -= f1 / scale;
         d2 -= f2 / scale;
     }
-    Some(Pass {
-        fit,
-        d1,
-        d2,
-        detrended_cost: None,
-    })
+    (d1, d2)
 }
 
 /// The cost ([`HarmonicFit::cost`]) of the plain fit of the signals less the ramps

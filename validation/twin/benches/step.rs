@@ -66,57 +66,89 @@ fn bench(c: &mut Criterion) {
     }
     g.finish();
 
-    // Same run, interleaved so that both sides see the same phases of a shared machine: three
-    // rounds of ours (5 x 20,000 steps) and one peer run (20,000 steps in each of its loops);
-    // medians.
-    const N: usize = 20_000;
+    let mut rates = measure_against_peer(&twin);
+    report(&mut rates);
+}
+
+/// Steps per second, one entry per timed run: ours and the Python peer's (its Python loop
+/// and its `mj_step(nstep=10)`), by wall clock and by thread CPU time.
+#[derive(Default)]
+struct Rates {
+    ours: Vec<f64>,
+    ours_cpu: Vec<f64>,
+    peer_loop: Vec<f64>,
+    peer_nstep: Vec<f64>,
+    peer_loop_cpu: Vec<f64>,
+    peer_nstep_cpu: Vec<f64>,
+}
+
+/// Steps in each timed run.
+const N: usize = 20_000;
+
+/// Our stepping and the peer's, interleaved so that both sides see the same phases of a
+/// shared machine: three rounds of ours (5 x 20,000 steps) and one peer run (20,000 steps in
+/// each of its loops). A peer that fails or is missing is not run again.
+fn measure_against_peer(twin: &Silo2) -> Rates {
     let py = python();
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench/peers/mujoco_step.py");
-    let (mut ours, mut ours_cpu) = (Vec::new(), Vec::new());
-    let (mut peer_loop, mut peer_nstep) = (Vec::new(), Vec::new());
-    let (mut peer_loop_cpu, mut peer_nstep_cpu) = (Vec::new(), Vec::new());
+    let mut r = Rates::default();
     let mut peer_ok = true;
     for _ in 0..3 {
         for _ in 0..5 {
             let mut d = twin.stand().expect("data");
-            steps(&twin, &mut d, 0, 1000, false);
+            steps(twin, &mut d, 0, 1000, false);
             let (t, c0) = (Instant::now(), thread_cpu_s());
-            black_box(steps(&twin, &mut d, 1000, N, false));
-            ours.push(N as f64 / t.elapsed().as_secs_f64());
+            black_box(steps(twin, &mut d, 1000, N, false));
+            r.ours.push(N as f64 / t.elapsed().as_secs_f64());
             if let (Some(c0), Some(c1)) = (c0, thread_cpu_s()) {
-                ours_cpu.push(N as f64 / (c1 - c0));
+                r.ours_cpu.push(N as f64 / (c1 - c0));
             }
         }
-        if !peer_ok {
-            continue;
-        }
-        match std::process::Command::new(&py)
-            .arg(&script)
-            .arg(default_mjcf())
-            .arg(N.to_string())
-            .output()
-        {
-            Ok(o) if o.status.success() => {
-                let v: serde_json::Value =
-                    serde_json::from_slice(&o.stdout).expect("peer prints JSON");
-                peer_loop.push(N as f64 / v["python_loop_wall_s"].as_f64().expect("wall"));
-                peer_nstep.push(N as f64 / v["nstep_wall_s"].as_f64().expect("wall"));
-                peer_loop_cpu.push(N as f64 / v["python_loop_cpu_s"].as_f64().expect("cpu"));
-                peer_nstep_cpu.push(N as f64 / v["nstep_cpu_s"].as_f64().expect("cpu"));
-            }
-            Ok(o) => {
-                eprintln!("python peer failed: {}", String::from_utf8_lossy(&o.stderr));
-                peer_ok = false;
-            }
-            Err(e) => {
-                eprintln!(
-                    "python peer not run ({}: {e}); set ZMP_PYTHON",
-                    py.display()
-                );
-                peer_ok = false;
-            }
+        if peer_ok {
+            peer_ok = run_peer(&py, &script, &mut r);
         }
     }
+    r
+}
+
+/// One run of the Python peer `script`, its rates added to `r`; false if it failed or could
+/// not be started (said on standard error).
+fn run_peer(py: &Path, script: &Path, r: &mut Rates) -> bool {
+    match std::process::Command::new(py)
+        .arg(script)
+        .arg(default_mjcf())
+        .arg(N.to_string())
+        .output()
+    {
+        Ok(o) if o.status.success() => {
+            let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("peer prints JSON");
+            r.peer_loop
+                .push(N as f64 / v["python_loop_wall_s"].as_f64().expect("wall"));
+            r.peer_nstep
+                .push(N as f64 / v["nstep_wall_s"].as_f64().expect("wall"));
+            r.peer_loop_cpu
+                .push(N as f64 / v["python_loop_cpu_s"].as_f64().expect("cpu"));
+            r.peer_nstep_cpu
+                .push(N as f64 / v["nstep_cpu_s"].as_f64().expect("cpu"));
+            true
+        }
+        Ok(o) => {
+            eprintln!("python peer failed: {}", String::from_utf8_lossy(&o.stderr));
+            false
+        }
+        Err(e) => {
+            eprintln!(
+                "python peer not run ({}: {e}); set ZMP_PYTHON",
+                py.display()
+            );
+            false
+        }
+    }
+}
+
+/// Prints the medians and puts them into the history of `cargo xtask bench` (seconds per
+/// step, ratio = peer / ours).
+fn report(r: &mut Rates) {
     let median = |v: &mut Vec<f64>| {
         if v.is_empty() {
             return f64::NAN;
@@ -127,15 +159,15 @@ fn bench(c: &mut Criterion) {
     for (what, o, pl, pn) in [
         (
             "wall clock",
-            median(&mut ours),
-            median(&mut peer_loop),
-            median(&mut peer_nstep),
+            median(&mut r.ours),
+            median(&mut r.peer_loop),
+            median(&mut r.peer_nstep),
         ),
         (
             "thread CPU time",
-            median(&mut ours_cpu),
-            median(&mut peer_loop_cpu),
-            median(&mut peer_nstep_cpu),
+            median(&mut r.ours_cpu),
+            median(&mut r.peer_loop_cpu),
+            median(&mut r.peer_nstep_cpu),
         ),
     ] {
         if pl.is_nan() {

@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! MuJoCo twins of the seeds' robots (SILO2, SABIAN): the only crate of the workspace that links
 //! MuJoCo (3.17.0 through `mujoco-rs`), so everything else builds without it.
 //!

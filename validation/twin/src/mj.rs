@@ -7,15 +7,30 @@ use std::path::{Path, PathBuf};
 /// What can go wrong before or while MuJoCo runs a twin.
 #[derive(Debug, thiserror::Error)]
 pub enum TwinError {
+    /// The MJCF file cannot be read.
     #[error("{path}: cannot read the MJCF file: {source}")]
     Read {
+        /// The file.
         path: PathBuf,
+        /// Why it cannot be read.
         source: std::io::Error,
     },
+    /// MuJoCo's compiler rejected the model.
     #[error("{path}: MuJoCo rejected the model: {message}")]
-    Load { path: String, message: String },
+    Load {
+        /// The model's file (or its name, for a model built in memory).
+        path: String,
+        /// MuJoCo's message.
+        message: String,
+    },
+    /// The model loaded but lacks something the twin needs (a body, joint or sensor).
     #[error("{path}: {message}")]
-    Model { path: String, message: String },
+    Model {
+        /// The model's file (or its name).
+        path: String,
+        /// What is missing or wrong.
+        message: String,
+    },
 }
 
 /// Loads an MJCF file. The file is read and checked first, so MuJoCo only sees a readable XML

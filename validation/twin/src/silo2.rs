@@ -64,19 +64,27 @@ pub const DOF: usize = 14;
 /// Ids of the parts of the SILO2 model the code uses.
 #[derive(Debug)]
 pub struct Silo2 {
+    /// The MuJoCo model.
     pub model: MjModel,
     /// Where the model came from (for messages).
     pub path: String,
+    /// The feet's load cells.
     pub cells: LoadCells,
+    /// Geom id of the floor.
     pub floor_geom: usize,
     /// The free-floating root body (pelvis): its subtree is the whole robot.
     pub root_body: usize,
+    /// Body id of the trunk.
     pub trunk_body: usize,
     /// The body that receives the 4 kg load.
     pub load_body: usize,
+    /// Joint id of each trunk joint, `[lateral, sagittal]`.
     pub trunk_joint: [usize; 2],
+    /// qpos address of each trunk joint.
     pub trunk_qpos: [usize; 2],
+    /// dof address of each trunk joint.
     pub trunk_dof: [usize; 2],
+    /// Actuator id of each trunk joint's servo.
     pub trunk_actuator: [usize; 2],
     /// The standing keyframe (soles on the floor, zero penetration).
     pub stand_key: usize,

@@ -25,6 +25,7 @@ pub const MIN_LOAD_N: f64 = 1.0;
 pub struct LoadCells {
     /// `(sensordata address, site id)` per cell.
     cells: Vec<(usize, usize)>,
+    /// Names of the cells, in sensor order.
     pub names: Vec<String>,
 }
 
@@ -67,10 +68,12 @@ impl LoadCells {
         })
     }
 
+    /// Number of cells.
     pub fn len(&self) -> usize {
         self.cells.len()
     }
 
+    /// Whether there are no cells.
     pub fn is_empty(&self) -> bool {
         self.cells.is_empty()
     }
@@ -116,6 +119,7 @@ impl<const N: usize> CellReading<N> {
         Some([p[0] / total, p[1] / total])
     }
 
+    /// The cells' total normal force, N.
     pub fn total(&self) -> f64 {
         self.force.iter().sum()
     }
@@ -233,6 +237,7 @@ impl<const N: usize> ZmpSensor<N> {
         Some(z.map(|v| quantise(v, self.spec.quantisation)))
     }
 
+    /// The sensor's specification.
     pub fn spec(&self) -> &ZmpSensorSpec {
         &self.spec
     }

@@ -1,5 +1,6 @@
-//! Building the table of each FMU kind: its fixed variables (inputs, outputs, step,
-//! controller parameters) with their units, descriptions, start values and bounds, then the
+//! The table of each FMU kind as data: a constant table of its fixed variables (inputs,
+//! outputs, step, controller parameters) with their units, descriptions, start sources and
+//! bounds, as Reference-FMUs keep theirs in `config.h`; the builder walks it, then appends the
 //! plant's model-file parameters.
 
 use super::{
@@ -8,410 +9,256 @@ use super::{
 };
 use zmp_models::closed_loop::StepExperiment;
 use zmp_models::controller::CascadeParams;
-use zmp_models::{ModelSpec, DEFAULT_STEP};
+use zmp_models::{ModelSpec, PlantOutput, DEFAULT_STEP};
+// The tables name variants bare, one column per field.
+use CtrlParam::*;
+use Role::{Controller as Ctrl, Input, Output, Step};
+use Start::*;
+use Variability::{Continuous, Discrete, Fixed};
 
-struct Builder {
-    vars: Vec<Var>,
+/// Where a fixed variable's start value comes from.
+#[derive(Debug, Clone, Copy)]
+enum Start {
+    /// A constant, in the variable's unit.
+    Value(f64),
+    /// The plant's default internal step [`DEFAULT_STEP`], s.
+    PlantStep,
+    /// The seed experiment's controller sample period, s.
+    ControllerPeriod,
+    /// Axis `i` (0: x, 1: y) of the initial ZMP reference ([`initial_zmp`]), m.
+    ZmpRef(usize),
+    /// Axis `i` of the CoM reference holding the plant at rest with its ZMP at the initial
+    /// ZMP reference ([`initial_operating_point`]), m.
+    RestComRef(usize),
+    /// Axis `i` of the plant's measured ZMP at that rest point, m.
+    RestZmp(usize),
+    /// Axis `i` of the plant's CoM at that rest point, m.
+    RestCom(usize),
+    /// A parameter of the seed's cascade controller ([`CascadeParams::silo2`]).
+    Seed(fn(&CascadeParams) -> f64),
 }
 
-impl Builder {
-    #[allow(clippy::too_many_arguments)]
-    fn push(
-        &mut self,
-        name: &str,
-        causality: Causality,
-        variability: Variability,
-        unit: &'static str,
-        description: &str,
-        start: f64,
-        bounds: (f64, f64),
-        role: Role,
-    ) {
-        let vr = self.vars.len() as u32;
-        self.vars.push(Var {
-            name: name.to_string(),
-            vr,
-            causality,
-            variability,
-            unit,
-            description: description.to_string(),
-            start,
-            min: bounds.0,
-            max: bounds.1,
-            whole: false,
-            role,
-        });
+/// One row of a kind's constant table: a variable whose value reference is its row number.
+struct Row {
+    name: &'static str,
+    /// What the variable is for the shells; its causality follows from it.
+    role: Role,
+    variability: Variability,
+    unit: &'static str,
+    start: Start,
+    /// Inclusive bounds accepted by the setter.
+    bounds: (f64, f64),
+    description: &'static str,
+}
+
+/// A row of the table (keeps the tables one column per field).
+const fn row(
+    name: &'static str,
+    role: Role,
+    variability: Variability,
+    unit: &'static str,
+    start: Start,
+    bounds: (f64, f64),
+    description: &'static str,
+) -> Row {
+    Row {
+        name,
+        role,
+        variability,
+        unit,
+        start,
+        bounds,
+        description,
     }
 }
 
+/// No bounds.
 const FREE: (f64, f64) = (f64::NEG_INFINITY, f64::INFINITY);
 
+/// The plant: CoM references in, measured ZMP and CoM out, the fixed internal step.
+#[rustfmt::skip]
+const PLANT: &[Row] = &[
+    //   name     role       variability unit start          bounds
+    row("x_cr",  Input(0),  Continuous, "m", RestComRef(0), FREE,
+        "CoM reference, lateral (x); held over each communication step unless its \
+         derivative is set; its value when initialisation ends is the operating \
+         point x of operating_point_dependence"),
+    row("y_cr",  Input(1),  Continuous, "m", RestComRef(1), FREE,
+        "CoM reference, sagittal (y); held over each communication step unless its \
+         derivative is set; its value when initialisation ends is the operating \
+         point y of operating_point_dependence"),
+    row("zmp_x", Output(0), Continuous, "m", RestZmp(0),    FREE, "measured ZMP, lateral (x)"),
+    row("zmp_y", Output(1), Continuous, "m", RestZmp(1),    FREE, "measured ZMP, sagittal (y)"),
+    row("x_c",   Output(2), Continuous, "m", RestCom(0),    FREE, "CoM position, lateral (x)"),
+    row("y_c",   Output(3), Continuous, "m", RestCom(1),    FREE, "CoM position, sagittal (y)"),
+    row("h",     Step,      Fixed,      "s", PlantStep,     (1e-6, 0.1),
+        "fixed internal step of the plant; the internal time grid is start + n h"),
+];
+
+/// The cascade controller: ZMP reference and measured ZMP in, CoM and trunk angle references
+/// out, the sample period and the controller's parameters (the seed's by default).
+#[rustfmt::skip]
+const CONTROLLER: &[Row] = &[
+    //   name            role               variability unit     start
+    //   bounds          description
+    row("zmp_ref_x",    Input(0),          Continuous, "m",     ZmpRef(0),
+        FREE,           "ZMP reference, lateral (x)"),
+    row("zmp_ref_y",    Input(1),          Continuous, "m",     ZmpRef(1),
+        FREE,           "ZMP reference, sagittal (y)"),
+    row("zmp_x",        Input(2),          Continuous, "m",     RestZmp(0),
+        FREE,           "measured ZMP, lateral (x)"),
+    row("zmp_y",        Input(3),          Continuous, "m",     RestZmp(1),
+        FREE,           "measured ZMP, sagittal (y)"),
+    row("x_cr",         Output(0),         Discrete,   "m",     RestComRef(0),
+        FREE,           "CoM reference, lateral (x): com_offset_x + (m_t/m_r) l_t theta_x"),
+    row("y_cr",         Output(1),         Discrete,   "m",     RestComRef(1),
+        FREE,           "CoM reference, sagittal (y): com_offset_y + (m_t/m_r) l_t theta_y"),
+    row("theta_x",      Output(2),         Discrete,   "rad",   Value(0.0),
+        FREE,           "trunk angle reference, lateral (x)"),
+    row("theta_y",      Output(3),         Discrete,   "rad",   Value(0.0),
+        FREE,           "trunk angle reference, sagittal (y)"),
+    row("h",            Step,              Fixed,      "s",     ControllerPeriod,
+        (1e-6, 10.0),   "sample period; samples at start + n h"),
+    row("K1",           Ctrl(K1),          Fixed,      "rad/s", Seed(|p| p.k1),
+        (0.0, 1e3),     "integral gain of C1 = K1/s (trunk angle rate per error unit)"),
+    row("K2",           Ctrl(K2),          Fixed,      "rad/s", Seed(|p| p.k2),
+        (0.0, 1e4),     "corner of the lag C2 = K2/(s + K2)"),
+    row("error_scale",  Ctrl(ErrorScale),  Fixed,      "1/m",   Seed(|p| p.error_scale),
+        (1e-6, 1e6),    "error units per metre of ZMP error (100: centimetres)"),
+    row("mass_ratio",   Ctrl(MassRatio),   Fixed,      "1",     Seed(|p| p.mass_ratio),
+        (1e-6, 1.0),    "trunk mass over robot mass m_t/m_r"),
+    row("trunk_length", Ctrl(TrunkLength), Fixed,      "m",     Seed(|p| p.trunk_length),
+        (1e-6, 100.0),  "trunk length l_t"),
+    row("theta_min",    Ctrl(ThetaMin),    Fixed,      "rad",   Seed(|p| p.theta_min),
+        (-3.2, 3.2),    "lower trunk angle limit (anti-windup clamp)"),
+    row("theta_max",    Ctrl(ThetaMax),    Fixed,      "rad",   Seed(|p| p.theta_max),
+        (-3.2, 3.2),    "upper trunk angle limit (anti-windup clamp)"),
+    row("com_offset_x", Ctrl(OffsetX),     Fixed,      "m",     RestComRef(0),
+        (-10.0, 10.0),  "CoM reference at zero trunk angle, lateral (x); the controller starts there"),
+    row("com_offset_y", Ctrl(OffsetY),     Fixed,      "m",     RestComRef(1),
+        (-10.0, 10.0),  "CoM reference at zero trunk angle, sagittal (y); the controller starts there"),
+];
+
+/// The pass-through: the plant's interface shape (2 inputs, 4 outputs), no physics.
+#[rustfmt::skip]
+const PASSTHROUGH: &[Row] = &[
+    //   name  role       variability unit start       bounds description
+    row("u1", Input(0),  Continuous, "1", Value(0.0), FREE,  "input 1"),
+    row("u2", Input(1),  Continuous, "1", Value(0.0), FREE,  "input 2"),
+    row("y1", Output(0), Continuous, "1", Value(0.0), FREE,  "u1"),
+    row("y2", Output(1), Continuous, "1", Value(0.0), FREE,  "u2"),
+    row("y3", Output(2), Continuous, "1", Value(0.0), FREE,  "u1"),
+    row("y4", Output(3), Continuous, "1", Value(0.0), FREE,  "u2"),
+];
+
+/// The constant table of `kind`.
+fn fixed_table(kind: Kind) -> &'static [Row] {
+    match kind {
+        Kind::Plant => PLANT,
+        Kind::Controller => CONTROLLER,
+        Kind::Passthrough => PASSTHROUGH,
+    }
+}
+
+impl Role {
+    /// The FMI causality of a fixed variable in this role.
+    fn causality(self) -> Causality {
+        match self {
+            Role::Input(_) => Causality::Input,
+            Role::Output(_) => Causality::Output,
+            Role::Step | Role::ModelParam(_) | Role::Controller(_) => Causality::Parameter,
+        }
+    }
+}
+
+/// The CoM reference that holds the plant at rest at the initial ZMP reference, and the
+/// plant's outputs there.
+type Rest = ([f64; 2], PlantOutput);
+
+/// What start values are computed from: the model, and its rest point once a start needs it
+/// (the pass-through never builds a plant).
+struct Origin<'a> {
+    spec: &'a ModelSpec,
+    rest: Option<Rest>,
+}
+
+impl Origin<'_> {
+    fn rest(&mut self) -> Result<Rest, String> {
+        let rest = match self.rest.take() {
+            Some(r) => r,
+            None => initial_operating_point(self.spec)?,
+        };
+        Ok(*self.rest.insert(rest))
+    }
+
+    /// The start value `start` stands for.
+    fn start(&mut self, start: Start) -> Result<f64, String> {
+        Ok(match start {
+            Value(v) => v,
+            PlantStep => DEFAULT_STEP,
+            ControllerPeriod => StepExperiment::silo2().controller_period,
+            ZmpRef(i) => initial_zmp()[i],
+            RestComRef(i) => self.rest()?.0[i],
+            RestZmp(i) => self.rest()?.1.zmp[i],
+            RestCom(i) => self.rest()?.1.com[i],
+            Seed(get) => get(&CascadeParams::silo2()),
+        })
+    }
+}
+
+/// The plant's model-file parameters as variables, numbered from [`PARAM_VR_BASE`].
+fn model_parameters(spec: &ModelSpec) -> impl Iterator<Item = Var> + '_ {
+    spec.parameters().into_iter().enumerate().map(|(i, p)| {
+        let title = spec.effects[p.effect].info.title;
+        Var {
+            name: p.key.clone(),
+            vr: PARAM_VR_BASE + i as u32,
+            causality: Causality::Parameter,
+            variability: Variability::Fixed,
+            unit: p.spec.unit,
+            description: format!("{title}: {}", p.spec.doc),
+            start: p.value,
+            min: p.spec.min,
+            max: p.spec.max,
+            whole: p.spec.name == "delta_seed",
+            role: Role::ModelParam(i),
+        }
+    })
+}
+
 impl VarTable {
-    /// The table of `kind` for the model `spec`.
+    /// The table of `kind` for the model `spec`: the kind's constant table, its start values
+    /// resolved for `spec`, then (plant) the model file's parameters.
     pub fn new(kind: Kind, spec: &ModelSpec) -> Result<VarTable, String> {
-        use Causality::*;
-        use Variability::*;
-        let mut b = Builder { vars: Vec::new() };
-        let (n_inputs, n_outputs);
-        match kind {
-            Kind::Plant => {
-                let (com0, out) = initial_operating_point(spec)?;
-                b.push(
-                    "x_cr",
-                    Input,
-                    Continuous,
-                    "m",
-                    "CoM reference, lateral (x); held over each communication step unless its \
-                     derivative is set; its value when initialisation ends is the operating \
-                     point x of operating_point_dependence",
-                    com0[0],
-                    FREE,
-                    Role::Input(0),
-                );
-                b.push(
-                    "y_cr",
-                    Input,
-                    Continuous,
-                    "m",
-                    "CoM reference, sagittal (y); held over each communication step unless its \
-                     derivative is set; its value when initialisation ends is the operating \
-                     point y of operating_point_dependence",
-                    com0[1],
-                    FREE,
-                    Role::Input(1),
-                );
-                b.push(
-                    "zmp_x",
-                    Output,
-                    Continuous,
-                    "m",
-                    "measured ZMP, lateral (x)",
-                    out.zmp[0],
-                    FREE,
-                    Role::Output(0),
-                );
-                b.push(
-                    "zmp_y",
-                    Output,
-                    Continuous,
-                    "m",
-                    "measured ZMP, sagittal (y)",
-                    out.zmp[1],
-                    FREE,
-                    Role::Output(1),
-                );
-                b.push(
-                    "x_c",
-                    Output,
-                    Continuous,
-                    "m",
-                    "CoM position, lateral (x)",
-                    out.com[0],
-                    FREE,
-                    Role::Output(2),
-                );
-                b.push(
-                    "y_c",
-                    Output,
-                    Continuous,
-                    "m",
-                    "CoM position, sagittal (y)",
-                    out.com[1],
-                    FREE,
-                    Role::Output(3),
-                );
-                b.push(
-                    "h",
-                    Parameter,
-                    Fixed,
-                    "s",
-                    "fixed internal step of the plant; the internal time grid is start + n h",
-                    DEFAULT_STEP,
-                    (1e-6, 0.1),
-                    Role::Step,
-                );
-                n_inputs = 2;
-                n_outputs = 4;
-            }
-            Kind::Controller => {
-                let (com0, out) = initial_operating_point(spec)?;
-                let p = CascadeParams::silo2();
-                let z0 = initial_zmp();
-                let dt = StepExperiment::silo2().controller_period;
-                b.push(
-                    "zmp_ref_x",
-                    Input,
-                    Continuous,
-                    "m",
-                    "ZMP reference, lateral (x)",
-                    z0[0],
-                    FREE,
-                    Role::Input(0),
-                );
-                b.push(
-                    "zmp_ref_y",
-                    Input,
-                    Continuous,
-                    "m",
-                    "ZMP reference, sagittal (y)",
-                    z0[1],
-                    FREE,
-                    Role::Input(1),
-                );
-                b.push(
-                    "zmp_x",
-                    Input,
-                    Continuous,
-                    "m",
-                    "measured ZMP, lateral (x)",
-                    out.zmp[0],
-                    FREE,
-                    Role::Input(2),
-                );
-                b.push(
-                    "zmp_y",
-                    Input,
-                    Continuous,
-                    "m",
-                    "measured ZMP, sagittal (y)",
-                    out.zmp[1],
-                    FREE,
-                    Role::Input(3),
-                );
-                b.push(
-                    "x_cr",
-                    Output,
-                    Discrete,
-                    "m",
-                    "CoM reference, lateral (x): com_offset_x + (m_t/m_r) l_t theta_x",
-                    com0[0],
-                    FREE,
-                    Role::Output(0),
-                );
-                b.push(
-                    "y_cr",
-                    Output,
-                    Discrete,
-                    "m",
-                    "CoM reference, sagittal (y): com_offset_y + (m_t/m_r) l_t theta_y",
-                    com0[1],
-                    FREE,
-                    Role::Output(1),
-                );
-                b.push(
-                    "theta_x",
-                    Output,
-                    Discrete,
-                    "rad",
-                    "trunk angle reference, lateral (x)",
-                    0.0,
-                    FREE,
-                    Role::Output(2),
-                );
-                b.push(
-                    "theta_y",
-                    Output,
-                    Discrete,
-                    "rad",
-                    "trunk angle reference, sagittal (y)",
-                    0.0,
-                    FREE,
-                    Role::Output(3),
-                );
-                b.push(
-                    "h",
-                    Parameter,
-                    Fixed,
-                    "s",
-                    "sample period; samples at start + n h",
-                    dt,
-                    (1e-6, 10.0),
-                    Role::Step,
-                );
-                b.push(
-                    "K1",
-                    Parameter,
-                    Fixed,
-                    "rad/s",
-                    "integral gain of C1 = K1/s (trunk angle rate per error unit)",
-                    p.k1,
-                    (0.0, 1e3),
-                    Role::Controller(CtrlParam::K1),
-                );
-                b.push(
-                    "K2",
-                    Parameter,
-                    Fixed,
-                    "rad/s",
-                    "corner of the lag C2 = K2/(s + K2)",
-                    p.k2,
-                    (0.0, 1e4),
-                    Role::Controller(CtrlParam::K2),
-                );
-                b.push(
-                    "error_scale",
-                    Parameter,
-                    Fixed,
-                    "1/m",
-                    "error units per metre of ZMP error (100: centimetres)",
-                    p.error_scale,
-                    (1e-6, 1e6),
-                    Role::Controller(CtrlParam::ErrorScale),
-                );
-                b.push(
-                    "mass_ratio",
-                    Parameter,
-                    Fixed,
-                    "1",
-                    "trunk mass over robot mass m_t/m_r",
-                    p.mass_ratio,
-                    (1e-6, 1.0),
-                    Role::Controller(CtrlParam::MassRatio),
-                );
-                b.push(
-                    "trunk_length",
-                    Parameter,
-                    Fixed,
-                    "m",
-                    "trunk length l_t",
-                    p.trunk_length,
-                    (1e-6, 100.0),
-                    Role::Controller(CtrlParam::TrunkLength),
-                );
-                b.push(
-                    "theta_min",
-                    Parameter,
-                    Fixed,
-                    "rad",
-                    "lower trunk angle limit (anti-windup clamp)",
-                    p.theta_min,
-                    (-3.2, 3.2),
-                    Role::Controller(CtrlParam::ThetaMin),
-                );
-                b.push(
-                    "theta_max",
-                    Parameter,
-                    Fixed,
-                    "rad",
-                    "upper trunk angle limit (anti-windup clamp)",
-                    p.theta_max,
-                    (-3.2, 3.2),
-                    Role::Controller(CtrlParam::ThetaMax),
-                );
-                b.push(
-                    "com_offset_x",
-                    Parameter,
-                    Fixed,
-                    "m",
-                    "CoM reference at zero trunk angle, lateral (x); the controller starts there",
-                    com0[0],
-                    (-10.0, 10.0),
-                    Role::Controller(CtrlParam::OffsetX),
-                );
-                b.push(
-                    "com_offset_y",
-                    Parameter,
-                    Fixed,
-                    "m",
-                    "CoM reference at zero trunk angle, sagittal (y); the controller starts there",
-                    com0[1],
-                    (-10.0, 10.0),
-                    Role::Controller(CtrlParam::OffsetY),
-                );
-                n_inputs = 4;
-                n_outputs = 4;
-            }
-            Kind::Passthrough => {
-                b.push(
-                    "u1",
-                    Input,
-                    Continuous,
-                    "1",
-                    "input 1",
-                    0.0,
-                    FREE,
-                    Role::Input(0),
-                );
-                b.push(
-                    "u2",
-                    Input,
-                    Continuous,
-                    "1",
-                    "input 2",
-                    0.0,
-                    FREE,
-                    Role::Input(1),
-                );
-                b.push(
-                    "y1",
-                    Output,
-                    Continuous,
-                    "1",
-                    "u1",
-                    0.0,
-                    FREE,
-                    Role::Output(0),
-                );
-                b.push(
-                    "y2",
-                    Output,
-                    Continuous,
-                    "1",
-                    "u2",
-                    0.0,
-                    FREE,
-                    Role::Output(1),
-                );
-                b.push(
-                    "y3",
-                    Output,
-                    Continuous,
-                    "1",
-                    "u1",
-                    0.0,
-                    FREE,
-                    Role::Output(2),
-                );
-                b.push(
-                    "y4",
-                    Output,
-                    Continuous,
-                    "1",
-                    "u2",
-                    0.0,
-                    FREE,
-                    Role::Output(3),
-                );
-                n_inputs = 2;
-                n_outputs = 4;
-            }
+        let table = fixed_table(kind);
+        assert!((table.len() as u32) < PARAM_VR_BASE);
+        let mut origin = Origin { spec, rest: None };
+        let mut vars = Vec::with_capacity(table.len());
+        for (vr, row) in (0u32..).zip(table) {
+            vars.push(Var {
+                name: row.name.to_string(),
+                vr,
+                causality: row.role.causality(),
+                variability: row.variability,
+                unit: row.unit,
+                description: row.description.to_string(),
+                start: origin.start(row.start)?,
+                min: row.bounds.0,
+                max: row.bounds.1,
+                whole: false,
+                role: row.role,
+            });
         }
-        let n_fixed = b.vars.len();
-        assert!((n_fixed as u32) < PARAM_VR_BASE);
         if kind == Kind::Plant {
-            for (i, p) in spec.parameters().into_iter().enumerate() {
-                let title = spec.effects[p.effect].info.title;
-                b.vars.push(Var {
-                    name: p.key.clone(),
-                    vr: PARAM_VR_BASE + i as u32,
-                    causality: Causality::Parameter,
-                    variability: Variability::Fixed,
-                    unit: p.spec.unit,
-                    description: format!("{title}: {}", p.spec.doc),
-                    start: p.value,
-                    min: p.spec.min,
-                    max: p.spec.max,
-                    whole: p.spec.name == "delta_seed",
-                    role: Role::ModelParam(i),
-                });
-            }
+            vars.extend(model_parameters(spec));
         }
+        let count = |is: fn(Role) -> bool| table.iter().filter(|row| is(row.role)).count();
         Ok(VarTable {
             kind,
-            vars: b.vars,
-            n_fixed,
-            n_inputs,
-            n_outputs,
+            vars,
+            n_fixed: table.len(),
+            n_inputs: count(|r| matches!(r, Role::Input(_))),
+            n_outputs: count(|r| matches!(r, Role::Output(_))),
         })
     }
 }

@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! FMI 3.0 co-simulation FMU of the ZMP plant: `fmi_export::export_fmu!` over
 //! `zmp_fmu_core::fmi3::Fmi3Fmu` (see there for why the model file is compiled in).
 
@@ -16,4 +17,10 @@ impl Baked for Model {
 /// The FMU's model type.
 pub type ZmpPlantFmi3 = Fmi3Fmu<Model>;
 
-fmi_export::export_fmu!(ZmpPlantFmi3);
+/// The FMI 3.0 C entry points the macro generates (`fmi3InstantiateCoSimulation`, ...):
+/// exported by symbol name, so they need no public Rust path and no documentation of their own.
+mod exports {
+    #![allow(missing_docs)]
+    use super::ZmpPlantFmi3;
+    fmi_export::export_fmu!(ZmpPlantFmi3);
+}

@@ -102,10 +102,15 @@ pub fn servo_harmonics(
 /// identity (kind and parameters) for the cache.
 #[derive(Debug)]
 pub struct ServoPart {
+    /// The servo effect to run.
     pub effect: Box<dyn Effect>,
+    /// The servo it acts in: `(omega_n rad/s, zeta)`.
     pub servo: (f64, f64),
+    /// The plant's internal step, s.
     pub h: f64,
+    /// The link the servo drives inside its loop, if any.
     pub link: Option<TrunkLink>,
+    /// The effect's kind and parameters as numbers, the cache key.
     pub identity: [f64; 3],
 }
 

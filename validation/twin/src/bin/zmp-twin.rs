@@ -173,13 +173,7 @@ fn run(cli: Cli) -> Result<()> {
             } => {
                 // Checked before the run: a README without the markers fails in seconds.
                 if let Some(p) = &readme {
-                    let text = std::fs::read_to_string(p)
-                        .with_context(|| format!("reading {}", p.display()))?;
-                    for (tag, _) in silo2::readme::TAGS.iter().map(|t| (t, ())) {
-                        if !text.contains(&format!("<!-- {tag} -->\n")) {
-                            anyhow::bail!("{}: no marker `<!-- {tag} -->`", p.display());
-                        }
-                    }
+                    check_readme_markers(p)?;
                 }
                 let summary = validate::validate(&validate::ValidateOptions {
                     model,
@@ -214,8 +208,6 @@ fn run(cli: Cli) -> Result<()> {
                 threads: n,
                 zmp_delay,
             } => {
-                let twin = silo2::Silo2::load(&model)?;
-                let props = silo2::props::mass_properties(&twin)?;
                 let mut design = if short {
                     TwinDesign::short()
                 } else if extended {
@@ -224,83 +216,112 @@ fn run(cli: Cli) -> Result<()> {
                     TwinDesign::full()
                 };
                 design.sensor.delay = zmp_delay;
-                let pb = if json {
-                    indicatif::ProgressBar::hidden()
-                } else {
-                    indicatif::ProgressBar::new(design.records().len() as u64)
-                };
-                let camp =
-                    silo2::campaign::run_campaign(&twin, &props, &design, threads(n), &|d| {
-                        pb.set_position(d as u64)
-                    })?;
-                pb.finish_and_clear();
-                zmp_campaign::write_campaign(&out, &camp, force)
-                    .with_context(|| format!("writing {}", out.display()))?;
-                let rows: usize = camp.records.iter().map(|r| r.len()).sum();
-                if json {
-                    println!(
-                        "{}",
-                        serde_json::json!({"campaign": out, "records": camp.records.len(), "rows": rows})
-                    );
-                } else {
-                    println!(
-                        "wrote {} records ({rows} rows) to {}",
-                        camp.records.len(),
-                        out.display()
-                    );
-                }
-                Ok(())
+                campaign(&model, &out, &design, force, json, threads(n))
             }
-            Silo2Cmd::Predict { json, model } => {
-                let twin = silo2::Silo2::load(&model)?;
-                let props = silo2::props::mass_properties(&twin)?;
-                let preds = TwinDesign::full()
-                    .operating_points
-                    .iter()
-                    .map(|&op| silo2::props::predict(&twin, &props, op))
-                    .collect::<Result<Vec<_>, _>>()?;
-                if json {
-                    println!(
-                        "{}",
-                        serde_json::to_string_pretty(
-                            &serde_json::json!({"mass": props, "predictions": preds})
-                        )?
-                    );
-                } else {
-                    println!(
-                        "mass {:.3} kg, trunk {:.3} kg (m_t/m_r {:.4}), l_t {:.4} m, CoM height {:.4} m",
-                        props.total_mass,
-                        props.trunk_mass,
-                        props.trunk_mass_ratio,
-                        props.trunk_lever,
-                        props.com_upright[2]
-                    );
-                    for p in &preds {
-                        println!(
-                            "op ({:+.3}, {:+.3}) m: seed a = 1, b = {:.5}; multibody a11 {:.4} b11 {:.5} \
-                             a22 {:.4} b22 {:.5}; with the servos a11 {:.4} b11 {:.5} a22 {:.4} b22 {:.5}; \
-                             omega_n {:.3}, zeta {:.4}",
-                            p.com_ref[0],
-                            p.com_ref[1],
-                            p.seed.b[0][0],
-                            p.multibody.a[0][0],
-                            p.multibody.b[0][0],
-                            p.multibody.a[1][1],
-                            p.multibody.b[1][1],
-                            p.servo.a[0][0],
-                            p.servo.b[0][0],
-                            p.servo.a[1][1],
-                            p.servo.b[1][1],
-                            p.omega_n[0],
-                            p.zeta[0]
-                        );
-                    }
-                }
-                Ok(())
-            }
+            Silo2Cmd::Predict { json, model } => predict(&model, json),
             Silo2Cmd::RenderFrames { model, states, out } => render_frames(&model, &states, &out),
         },
     }
+}
+
+/// `silo2 campaign`: runs `design` on the twin of `model` with `threads` workers and writes
+/// the campaign to `out` (an existing one only with `force`).
+fn campaign(
+    model: &std::path::Path,
+    out: &std::path::Path,
+    design: &TwinDesign,
+    force: bool,
+    json: bool,
+    threads: usize,
+) -> Result<()> {
+    let twin = silo2::Silo2::load(model)?;
+    let props = silo2::props::mass_properties(&twin)?;
+    let pb = if json {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new(design.records().len() as u64)
+    };
+    let camp = silo2::campaign::run_campaign(&twin, &props, design, threads, &|d| {
+        pb.set_position(d as u64)
+    })?;
+    pb.finish_and_clear();
+    zmp_campaign::write_campaign(out, &camp, force)
+        .with_context(|| format!("writing {}", out.display()))?;
+    let rows: usize = camp.records.iter().map(|r| r.len()).sum();
+    if json {
+        println!(
+            "{}",
+            serde_json::json!({"campaign": out, "records": camp.records.len(), "rows": rows})
+        );
+    } else {
+        println!(
+            "wrote {} records ({rows} rows) to {}",
+            camp.records.len(),
+            out.display()
+        );
+    }
+    Ok(())
+}
+
+/// `silo2 predict`: the twin's mass properties and the three predictions of `a`, `b` at the
+/// full campaign's operating points.
+fn predict(model: &std::path::Path, json: bool) -> Result<()> {
+    let twin = silo2::Silo2::load(model)?;
+    let props = silo2::props::mass_properties(&twin)?;
+    let preds = TwinDesign::full()
+        .operating_points
+        .iter()
+        .map(|&op| silo2::props::predict(&twin, &props, op))
+        .collect::<Result<Vec<_>, _>>()?;
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(
+                &serde_json::json!({"mass": props, "predictions": preds})
+            )?
+        );
+    } else {
+        println!(
+            "mass {:.3} kg, trunk {:.3} kg (m_t/m_r {:.4}), l_t {:.4} m, CoM height {:.4} m",
+            props.total_mass,
+            props.trunk_mass,
+            props.trunk_mass_ratio,
+            props.trunk_lever,
+            props.com_upright[2]
+        );
+        for p in &preds {
+            println!(
+                "op ({:+.3}, {:+.3}) m: seed a = 1, b = {:.5}; multibody a11 {:.4} b11 {:.5} \
+                 a22 {:.4} b22 {:.5}; with the servos a11 {:.4} b11 {:.5} a22 {:.4} b22 {:.5}; \
+                 omega_n {:.3}, zeta {:.4}",
+                p.com_ref[0],
+                p.com_ref[1],
+                p.seed.b[0][0],
+                p.multibody.a[0][0],
+                p.multibody.b[0][0],
+                p.multibody.a[1][1],
+                p.multibody.b[1][1],
+                p.servo.a[0][0],
+                p.servo.b[0][0],
+                p.servo.a[1][1],
+                p.servo.b[1][1],
+                p.omega_n[0],
+                p.zeta[0]
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The README at `p` must carry every marker `validate silo2 --readme` writes into.
+fn check_readme_markers(p: &std::path::Path) -> Result<()> {
+    let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+    for (tag, _) in silo2::readme::TAGS.iter().map(|t| (t, ())) {
+        if !text.contains(&format!("<!-- {tag} -->\n")) {
+            anyhow::bail!("{}: no marker `<!-- {tag} -->`", p.display());
+        }
+    }
+    Ok(())
 }
 
 #[cfg(feature = "renderer")]

@@ -57,6 +57,7 @@ impl SensorNoise {
         }
     }
 
+    /// The noise model the estimators weight by: the stated standard deviations, tilt in rad.
     pub fn model(&self) -> NoiseModel {
         NoiseModel {
             force_std_n: self.force_std_n,
@@ -70,15 +71,20 @@ impl SensorNoise {
 /// settling) and the true encoders' kinematics.
 #[derive(Debug, Clone, Copy)]
 pub struct HeldPosture {
+    /// The commanded posture.
     pub spec: PostureSpec,
+    /// The two ankle sensors' wrenches (N, N m), left then right, in the sensor frames.
     pub readings: [Wrench; 2],
+    /// What the encoders give through the CAD model.
     pub kinematics: Kinematics,
     /// The real twin's body above the sensors (kg, m) and whole robot's CoM (m).
     pub true_body: (f64, Vec3),
+    /// The real twin's whole-robot CoM (m).
     pub true_com: Vec3,
     /// Each servo's torque (N m, averaged like the readings) and its joint's axis: the motor
     /// currents of the seed's eq. 7.
     pub motor_torques: [f64; MOTORS],
+    /// The axis (roll, pitch or yaw) of each servo's joint.
     pub motor_axes: [JointAxis; MOTORS],
 }
 
@@ -88,14 +94,18 @@ pub struct HeldPosture {
 /// 2.4 for yaw. Since `K I` gives back the torque, K only scales the noise.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct MotorModel {
+    /// Torque constant of the pitch joints' motors (gear included), N m/A.
     pub k_pitch_nm_per_a: f64,
+    /// Torque constant of the roll joints' motors (gear included), N m/A.
     pub k_roll_nm_per_a: f64,
+    /// Torque constant of the yaw joints' motors (gear included), N m/A.
     pub k_yaw_nm_per_a: f64,
     /// White noise of each averaged current reading (A).
     pub current_std_a: f64,
 }
 
 impl MotorModel {
+    /// The twin's motors: 4.8, 3.6 and 2.4 N m/A for pitch, roll and yaw.
     pub fn twin() -> MotorModel {
         MotorModel {
             k_pitch_nm_per_a: 4.8,
@@ -351,9 +361,13 @@ fn result(total: &CadCom, truth: &Vec3, cov: &com::Mat3) -> ComResult {
 /// `M_2 = + sum K I` and `- sum K I` (the seed does not fix the joint moments' sign).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SeedCalibration {
+    /// With the sensors' offsets as stated, `M_2 = 0`.
     pub with_offsets: ComResult,
+    /// With perfectly zeroed sensors, `M_2 = 0`.
     pub zeroed: ComResult,
+    /// Zeroed sensors, `M_2 = + sum K I` (the seed's eq. 7).
     pub eq7_plus: ComResult,
+    /// Zeroed sensors, `M_2 = - sum K I`.
     pub eq7_minus: ComResult,
 }
 

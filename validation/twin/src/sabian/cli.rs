@@ -8,6 +8,7 @@ use clap::Subcommand;
 use std::path::PathBuf;
 use zmp_models::walking::Gait;
 
+/// The commands on the SABIAN twin.
 #[derive(Subcommand)]
 pub enum SabianCommand {
     /// Calibrate the effective CoM on the twin (the seed's upright + 1 degree design, with and
@@ -45,6 +46,7 @@ pub enum SabianCommand {
     },
 }
 
+/// Runs a `sabian` command.
 pub fn run(cmd: SabianCommand) -> Result<()> {
     match cmd {
         SabianCommand::CalibrateCom {

@@ -60,17 +60,22 @@ fn channels(v: &[[f64; 2]]) -> [Vec<f64>; 3] {
 pub struct RunMetrics {
     /// Correlation of position and velocity, [x, y, xy].
     pub corr_pos: [f64; 3],
+    /// Correlation of the velocities, [x, y, xy].
     pub corr_vel: [f64; 3],
     /// RMS of the difference: position (m), velocity (m/s), acceleration (m/s^2), [x, y, xy].
     pub rms_pos: [f64; 3],
+    /// RMS of the velocity difference (m/s), [x, y, xy].
     pub rms_vel: [f64; 3],
+    /// RMS of the acceleration difference (m/s^2), [x, y, xy].
     pub rms_acc: [f64; 3],
     /// Mean ZMP bias measured - planned (m), [x, y].
     pub bias: [f64; 2],
     /// Roll joints' RMS tracking error: [left ankle, left hip, right ankle, right hip] of
     /// position (deg), velocity (deg/s), acceleration (deg/s^2).
     pub roll_pos: [f64; 4],
+    /// RMS velocity tracking error of the roll joints (deg/s).
     pub roll_vel: [f64; 4],
+    /// RMS acceleration tracking error of the roll joints (deg/s^2).
     pub roll_acc: [f64; 4],
 }
 

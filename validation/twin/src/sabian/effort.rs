@@ -11,6 +11,7 @@ pub const CLAIM_RESOLUTION_M: f64 = 1e-3;
 /// The seed's claim on the twin: "the better the CoM model, the less the control acts".
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Claim {
+    /// Whether the claim holds: at least one pair ranked, and in every ranked pair the model with the smaller CoM error needed less control effort.
     pub holds: bool,
     /// Pairs ranked (CoM errors further apart than [`CLAIM_RESOLUTION_M`]).
     pub ranked_pairs: usize,

@@ -28,6 +28,7 @@ pub struct Options {
 }
 
 impl Options {
+    /// The full experiment: the seed's 5 runs per model and control, 200 noise draws.
     pub fn full() -> Options {
         Options {
             runs: 5,
@@ -51,14 +52,19 @@ impl Options {
 /// One design's calibration over the noise draws.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct DesignOutcome {
+    /// The design's name.
     pub name: String,
+    /// Its postures' labels.
     pub postures: Vec<String>,
+    /// The estimate of each noise draw.
     pub draws: Vec<ComResult>,
     /// RMS over draws of the horizontal and vertical error (m).
     pub rms_horizontal_m: f64,
+    /// RMS over draws of the vertical error (m).
     pub rms_vertical_m: f64,
     /// RMS over draws of the reported standard deviations, horizontal and vertical (m).
     pub reported_horizontal_m: f64,
+    /// RMS over draws of the reported vertical standard deviation (m).
     pub reported_vertical_m: f64,
     /// Fraction of |z| <= 2 over draws and axes.
     pub z_within_2: f64,
@@ -101,13 +107,19 @@ fn summarise(name: &str, postures: Vec<String>, draws: Vec<ComResult>) -> Design
 /// The calibration part.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct CalibrationOutcome {
+    /// The sensors' noise the draws use.
     pub noise: SensorNoise,
+    /// The real twin's mass (kg).
     pub true_mass_kg: f64,
+    /// The real twin's whole-robot CoM (m).
     pub true_com: [f64; 3],
+    /// The CAD model's whole-robot CoM (m).
     pub cad_com: [f64; 3],
+    /// The real twin's mass minus the CAD model's: the error mass (kg).
     pub true_error_mass_kg: f64,
     /// In the trunk frame (m).
     pub true_error_mass_position: [f64; 3],
+    /// The seed's two-posture design (upright and 1 degree) with the sensors' offsets.
     pub seed: DesignOutcome,
     /// The seed's design with perfectly zeroed sensors (what the offsets cost it).
     pub seed_zeroed: DesignOutcome,
@@ -117,14 +129,20 @@ pub struct CalibrationOutcome {
     /// The seed's `M_2` (roll, pitch, yaw sums of the servos' torques, N m) in its two
     /// postures, without current noise.
     pub seed_m2_nm: [[f64; 3]; 2],
+    /// The seed's eq. 7 with `M_2 = + sum K I`.
     pub seed_eq7_plus: DesignOutcome,
+    /// The seed's eq. 7 with `M_2 = - sum K I`.
     pub seed_eq7_minus: DesignOutcome,
+    /// Our D-optimal design, offsets estimated.
     pub designed: DesignOutcome,
+    /// Condition number of our design's whitened stacked system.
     pub designed_condition_number: f64,
     /// The first draw of our design: estimated error mass (kg), its position in the trunk frame
     /// (m), and the total CoM (m) the virtual models use.
     pub estimated_error_mass_kg: f64,
+    /// Position of the estimated error mass in the trunk frame (m).
     pub estimated_error_mass_position: [f64; 3],
+    /// The estimated whole-robot CoM (m).
     pub estimated_com: [f64; 3],
     /// Trunk pose at the calibration's upright posture.
     #[serde(skip)]
@@ -277,8 +295,11 @@ pub struct Walks {
     /// Mean over the runs that did not fall, over the seed's 512 phases and over the 256
     /// phases of the motion.
     pub mean: RunMetrics,
+    /// The same mean over the 256 phases of the motion only.
     pub mean_motion: RunMetrics,
+    /// Each run's figures (runs that did not fall).
     pub runs: Vec<RunMetrics>,
+    /// Runs that fell.
     pub falls: usize,
     /// Runs that ended standing at the gait's end ([`Run::finished_standing`]).
     pub finished_standing: usize,
@@ -288,7 +309,9 @@ pub struct Walks {
     pub real_time_factor: f64,
     /// With Torso Position Control: the mean effort over the runs, and each run's.
     pub effort: Option<Effort>,
+    /// Each run's effort (with Torso Position Control).
     pub efforts: Vec<Effort>,
+    /// Each run's recording (for the figures).
     #[serde(skip)]
     pub traces: Vec<Run>,
 }
@@ -336,11 +359,15 @@ fn walks(runs: Vec<Run>, gait: &Gait) -> Walks {
 /// One model's walking.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct ModelOutcome {
+    /// The model's letter (n, r, s, v, e).
     pub name: String,
+    /// What the model is.
     pub description: String,
     /// Trunk frame (m); none for n.
     pub error_mass_position: Option<[f64; 3]>,
+    /// The error mass the model puts on the trunk (kg).
     pub error_mass_kg: f64,
+    /// Height of the model's CoM (m).
     pub com_height_m: f64,
     /// The model's CoM minus the real robot's at the plan's first posture (m): what the model
     /// gets wrong.
@@ -350,8 +377,11 @@ pub struct ModelOutcome {
     pub real_com_per_shift: [f64; 2],
     /// The Torso Position Control's gains for this model's plan (none if no run was made).
     pub tpc: Option<TorsoParams>,
+    /// The walks without control.
     pub open_loop: Walks,
+    /// The walks with Torso Position Control.
     pub with_tpc: Walks,
+    /// The model's planned walk.
     #[serde(skip)]
     pub plan: Option<Plan>,
 }

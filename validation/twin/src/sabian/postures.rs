@@ -26,6 +26,7 @@ pub struct PostureSpec {
 }
 
 impl PostureSpec {
+    /// Standing upright on both feet, pelvis at home height.
     pub fn upright() -> PostureSpec {
         PostureSpec {
             pitch_deg: 0.0,
@@ -35,6 +36,7 @@ impl PostureSpec {
         }
     }
 
+    /// A short label: the tilts (deg), the knee drop (mm) and which foot is up.
     pub fn label(&self) -> String {
         let mut s = format!("pitch {:+.1} roll {:+.1}", self.pitch_deg, self.roll_deg);
         if self.drop_m > 0.0 {
@@ -137,16 +139,22 @@ pub fn seed_design() -> [PostureSpec; 2] {
 /// support polygon check.
 #[derive(Debug, Clone, Copy)]
 pub struct Kinematics {
+    /// Each ankle sensor's origin (m) and axes in the calibration frame, left then right.
     pub sensors: [(Vec3, com::Mat3); 2],
+    /// The CAD model's mass of the body above the sensors (kg).
     pub cad_mass: f64,
+    /// The CAD model's first moment of that body (kg m).
     pub cad_first_moment: Vec3,
+    /// The trunk's origin (m) and axes.
     pub trunk: (Vec3, com::Mat3),
+    /// The pelvis's origin (m) and axes.
     pub pelvis: (Vec3, com::Mat3),
     /// The CAD whole robot's CoM (m).
     pub cad_com: Vec3,
 }
 
 impl Kinematics {
+    /// The kinematics of the twin's current posture.
     pub fn of(robot: &mut Sabian) -> Kinematics {
         robot.kinematics();
         let (cad_mass, cad_first_moment) = robot.body_first_moment();

@@ -13,10 +13,15 @@ use zmp_files::{check_file, write_file, Kind};
 /// Everything the report shows.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Outcome {
+    /// The summary's format string.
     pub format: String,
+    /// The command line that made it.
     pub command: String,
+    /// Walking runs per model and control.
     pub runs_per_model: usize,
+    /// The calibration part.
     pub calibration: CalibrationOutcome,
+    /// The walking part, one per virtual model.
     pub walking: Vec<ModelOutcome>,
 }
 
@@ -68,7 +73,7 @@ pub fn markdown(o: &Outcome) -> String {
     s
 }
 
-/// The files [`write`] puts into its folder (and nothing else).
+/// The files [`write()`] puts into its folder (and nothing else).
 pub const FILES: [&str; 8] = [
     "com-calibration.toml",
     "report.html",

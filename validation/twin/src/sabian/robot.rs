@@ -34,7 +34,9 @@ pub fn cad_path() -> PathBuf {
 /// A point mass fixed to the trunk (kg; m in the trunk frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PointMass {
+    /// Mass (kg).
     pub mass_kg: f64,
+    /// Position in the trunk frame (m).
     pub position: Vec3,
 }
 
@@ -42,6 +44,7 @@ pub struct PointMass {
 /// floor's friction.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Variant {
+    /// The extra masses fixed to the trunk.
     pub trunk_masses: Vec<PointMass>,
     /// Multiplies the soles' and floor's sliding friction (1 if `None`).
     pub friction_scale: Option<f64>,
@@ -83,23 +86,30 @@ pub fn variant_xml(cad: &str, v: &Variant) -> Result<String, TwinError> {
 /// Index tables of the model.
 #[derive(Debug, Clone)]
 pub struct Indices {
-    /// qpos address of each leg joint, [side][joint].
+    /// qpos address of each leg joint, `[side][joint]`.
     pub leg_qpos: [[usize; 7]; 2],
     /// dof address of each leg joint.
     pub leg_dof: [[usize; 7]; 2],
+    /// qpos address of each waist joint.
     pub waist_qpos: [usize; 2],
     /// (actuator, qpos address of its joint).
     pub servo: Vec<(usize, usize)>,
     /// The axis of each actuator's joint, for the seed's eq. 7 sums (roll, pitch or yaw, from
     /// the joint's name: the knee is a pitch joint).
     pub servo_axis: Vec<JointAxis>,
+    /// Body id of the pelvis.
     pub pelvis: usize,
+    /// Body id of the trunk.
     pub trunk: usize,
+    /// Body id of each sole, left then right.
     pub soles: [usize; 2],
+    /// Site id of each ankle force-torque sensor.
     pub ft_site: [usize; 2],
+    /// Site id of each sole's bottom centre.
     pub sole_bottom_site: [usize; 2],
     /// sensordata address of each foot's force and torque.
     pub ft_force: [usize; 2],
+    /// sensordata address of each foot's torque.
     pub ft_torque: [usize; 2],
 }
 
@@ -113,6 +123,7 @@ fn id(model: &MjModel, kind: MjtObjBase, name: &str) -> Result<usize, TwinError>
 }
 
 impl Indices {
+    /// The indices of the parts of `model`; an error names a part the model lacks.
     pub fn new(model: &MjModel) -> Result<Indices, TwinError> {
         let jq = |n: &str| -> Result<(usize, usize), TwinError> {
             let j = id(model, MjtObjBase::mjOBJ_JOINT, n)?;
@@ -183,15 +194,20 @@ impl Indices {
 
 /// A loaded twin: model, data and indices.
 pub struct Sabian {
+    /// MuJoCo's state of the twin, with its model.
     pub data: MjData<Box<MjModel>>,
+    /// Where the parts are.
     pub idx: Indices,
+    /// The twin's name in messages.
     pub name: String,
 }
 
+/// A 3x3 matrix of MuJoCo's row-major 9 numbers.
 pub fn mat3(m: &[f64; 9]) -> Mat3 {
     Mat3::from_row_slice(m)
 }
 
+/// A 3-vector of MuJoCo's 3 numbers.
 pub fn vec3(v: &[f64; 3]) -> Vec3 {
     Vec3::new(v[0], v[1], v[2])
 }
@@ -215,6 +231,7 @@ impl Sabian {
         })
     }
 
+    /// The twin's MuJoCo model.
     pub fn model(&self) -> &MjModel {
         self.data.model()
     }

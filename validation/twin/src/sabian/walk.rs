@@ -26,6 +26,7 @@ pub const PLAN_STEP: f64 = 0.01;
 pub struct VirtualModel {
     /// The seed's letter (n, r, s, v) or ours (e).
     pub name: String,
+    /// What the model is.
     pub description: String,
     /// The error mass on the trunk (none for n).
     pub error_mass: Option<PointMass>,
@@ -34,6 +35,7 @@ pub struct VirtualModel {
 /// A planned walk: joint targets and the ideal ZMP at [`PLAN_STEP`].
 #[derive(Debug, Clone)]
 pub struct Plan {
+    /// The name of the model it was planned on.
     pub model: String,
     /// Full qpos per sample (free joint included).
     pub qpos: Vec<Vec<f64>>,
@@ -43,6 +45,7 @@ pub struct Plan {
     pub zmp_ref: Vec<[f64; 2]>,
     /// The planned CoM (m).
     pub com: Vec<[f64; 2]>,
+    /// Height of the planning model's CoM (m).
     pub com_height_m: f64,
     /// The planning model's CoM at the first sample (m).
     pub com_at_start: Vec3,
@@ -177,13 +180,17 @@ pub fn multibody_zmp(positions: &[Vec<Vec3>], masses: &[f64], dt: f64) -> Vec<[f
 /// The small differences between runs.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Perturbation {
+    /// Multiplies the soles' and floor's sliding friction.
     pub friction_scale: f64,
+    /// Multiplies the servos' gains.
     pub servo_gain_scale: f64,
     /// Initial pelvis offset (m).
     pub initial_offset: [f64; 2],
     /// White noise of the sensors per sample (N, N m).
     pub force_noise_n: f64,
+    /// White noise of the sensors' moments per sample (N m).
     pub moment_noise_nm: f64,
+    /// The seed the run's random draws come from.
     pub seed: u64,
 }
 
@@ -206,7 +213,9 @@ impl Perturbation {
 /// phase's means).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Run {
+    /// The virtual model walked.
     pub model: String,
+    /// Whether the robot fell.
     pub fell: bool,
     /// Time of the fall (s), if any.
     pub fall_time_s: Option<f64>,
@@ -219,6 +228,7 @@ pub struct Run {
     pub com: Vec<[f64; 2]>,
     /// Roll joints (rad), measured and planned: left ankle, left hip, right ankle, right hip.
     pub roll: Vec<[f64; 4]>,
+    /// Roll joints planned (rad), in the same order.
     pub roll_plan: Vec<[f64; 4]>,
     /// Largest sole height reached (m).
     pub max_clearance_m: f64,
@@ -226,16 +236,20 @@ pub struct Run {
     pub final_pelvis: [f64; 2],
     /// Pelvis height (m) and its tilt from the vertical (deg) at the end.
     pub final_pelvis_height_m: f64,
+    /// Tilt of the pelvis from the vertical at the end (deg).
     pub final_tilt_deg: f64,
     /// Height of each sole's bottom centre at the end (m).
     pub final_sole_heights_m: [f64; 2],
     /// With Torso Position Control: its gains, its torso shift at each phase's end (m) and its
     /// effort.
     pub tpc: Option<TorsoParams>,
+    /// The torso shift at each phase's end (m).
     pub torso_shift: Vec<[f64; 2]>,
+    /// The control's effort.
     pub effort: Option<Effort>,
     /// Wall time of the simulation (s) and simulated time (s).
     pub wall_s: f64,
+    /// Simulated time (s).
     pub sim_s: f64,
 }
 

@@ -25,6 +25,7 @@ use zmp_models::Axis;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TwinDesign {
+    /// The design's name.
     pub name: String,
     /// CoM references `[x, y]` (eq. 26) the sines oscillate around, m.
     pub operating_points: Vec<[f64; 2]>,
@@ -32,6 +33,7 @@ pub struct TwinDesign {
     pub amplitudes: Vec<f64>,
     /// Excitation frequencies, rad/s.
     pub omegas: Vec<f64>,
+    /// The CoM reference axes excited, one at a time.
     pub excited: Vec<Axis>,
     /// Sample rate of the records, Hz (a whole number of 1 ms physics steps per sample).
     pub sample_rate_hz: f64,
@@ -39,10 +41,12 @@ pub struct TwinDesign {
     pub transient_s: f64,
     /// Whole periods of steady state recorded, at least `min_steady_s`.
     pub periods: u32,
+    /// Least steady-state time recorded, s.
     pub min_steady_s: f64,
     /// Time to bring the trunk to the operating point and come to rest, s (the first 0.5 s
     /// ramp the references).
     pub settle_s: f64,
+    /// The ZMP sensor the records are measured with.
     pub sensor: ZmpSensorSpec,
     /// Records above the main band with amplitudes of their own (at every operating point and
     /// excited axis), after the main grid's.

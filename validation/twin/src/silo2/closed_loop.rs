@@ -43,6 +43,7 @@ pub const SEED_STEP: f64 = 0.05;
 
 /// The loaded mass, kg, and when, s.
 pub const LOAD_MASS: f64 = 4.0;
+/// When the load is placed, s.
 pub const LOAD_TIME: f64 = 80.0;
 
 /// The controller on the twin: the seed's gains and units, the twin's mass properties.
@@ -81,8 +82,11 @@ pub fn experiment(
 /// measured trunk angles.
 #[derive(Debug, Clone, Default)]
 pub struct TwinRun {
+    /// The trace of the run.
     pub trace: ClosedLoopTrace,
+    /// The true ZMP (load cells without sensor noise), m.
     pub zmp_true: Vec<[f64; 2]>,
+    /// The measured trunk angles, rad.
     pub theta_measured: Vec<[f64; 2]>,
 }
 
@@ -227,26 +231,35 @@ pub struct LoopComparison {
     pub rms_difference: [f64; 2],
     /// The same measure for the ZMP sensor's noise alone (what a perfect model would score).
     pub noise_floor_x: f64,
+    /// The twin's step and load figures.
     pub twin: Metrics,
+    /// The model's step and load figures.
     pub model: Metrics,
     /// Final trunk angles (mean of the last 10 s), rad: twin (measured) and model.
     pub final_theta_twin: f64,
+    /// Final trunk angle of the model, rad.
     pub final_theta_model: f64,
 }
 
 /// Step and load figures (x axis), SI units.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Metrics {
+    /// First time the ZMP reaches the new reference after the step, s (NaN if never).
     pub reach_time_s: f64,
+    /// Time after which the ZMP stays within 2 % of the step of the reference, s (before the load).
     pub settling_time_2pct_s: f64,
+    /// Largest excursion past the new reference, % of the step.
     pub overshoot_pct: f64,
+    /// Largest ZMP deviation after the load is placed, m.
     pub load_peak_error_m: f64,
+    /// Time from placing the load until the error stays within 2 % of the step, s.
     pub load_recovery_time_s: f64,
     /// Mean |zmp - reference| over the last 10 s, m.
     pub final_error_m: f64,
 }
 
 impl Metrics {
+    /// The figures of the trace `tr` of experiment `exp`.
     pub fn of(tr: &ClosedLoopTrace, exp: &StepExperiment) -> Metrics {
         let m: StepMetrics = tr.metrics(0, exp);
         let tail: Vec<usize> = (0..tr.t.len())

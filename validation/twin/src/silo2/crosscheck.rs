@@ -34,9 +34,11 @@ pub struct StaticCheck {
     pub com: [f64; 3],
     /// ZMP of the load cells and MuJoCo's centre of pressure, m (means).
     pub zmp_cells: [f64; 2],
+    /// MuJoCo's centre of pressure, m (mean).
     pub cop: [f64; 2],
     /// Largest `|zmp_cells - cop|` and `|zmp_cells - com|` over the window (both axes), m.
     pub max_cells_minus_cop: f64,
+    /// Largest `|zmp_cells - com|` over the window (both axes), m.
     pub max_cells_minus_com: f64,
     /// Deepest contact penetration, m.
     pub penetration: f64,
@@ -103,16 +105,20 @@ fn no_load(twin: &Silo2) -> TwinError {
 /// The dynamic comparison during one trunk sine.
 #[derive(Debug, Clone, Serialize)]
 pub struct DynamicCheck {
+    /// The trunk axis excited.
     pub axis: Axis,
     /// rad/s, and the CoM reference amplitude, m.
     pub omega: f64,
+    /// The CoM reference amplitude, m.
     pub amplitude: f64,
     /// RMS of the load-cell ZMP about its mean on the excited axis, m.
     pub rms_zmp: f64,
     /// RMS differences of the load-cell ZMP on the excited axis from MuJoCo's centre of
     /// pressure, the momentum ZMP and the cart-table ZMP, m.
     pub rms_cells_minus_cop: f64,
+    /// RMS difference of the load-cell ZMP from the momentum ZMP, m.
     pub rms_cells_minus_momentum: f64,
+    /// RMS difference of the load-cell ZMP from the cart-table ZMP, m.
     pub rms_cells_minus_cart_table: f64,
     /// First-harmonic amplitude of the cart-table ZMP over that of the load cells.
     pub cart_table_amplitude_ratio: f64,
@@ -192,11 +198,14 @@ pub fn dynamic_check(
 /// The ZMP's response at one frequency against the rigid-robot prediction.
 #[derive(Debug, Clone, Serialize)]
 pub struct ResponseError {
+    /// The axis.
     pub axis: Axis,
+    /// The frequency, rad/s.
     pub omega: f64,
     /// `|Z / Z_rigid| - 1` and `arg(Z / Z_rigid)` (degrees), `Z_rigid` from the measured trunk
     /// motion through the rigid-robot ZMP of `props`.
     pub magnitude_error: f64,
+    /// `arg(Z / Z_rigid)`, degrees.
     pub phase_error_deg: f64,
 }
 
@@ -205,9 +214,13 @@ pub struct ResponseError {
 pub struct BudgetRow {
     /// `solref` time constant, s (damping ratio 1).
     pub timeconst: f64,
+    /// Deepest contact penetration, m.
     pub penetration: f64,
+    /// Largest `|zmp_cells - cop|` in the static posture, m.
     pub max_cells_minus_cop: f64,
+    /// Largest `|zmp_cells - com|` in the static posture, m.
     pub max_cells_minus_com: f64,
+    /// The ZMP's response against the rigid robot's at each frequency.
     pub response: Vec<ResponseError>,
 }
 

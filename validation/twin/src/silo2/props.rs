@@ -46,9 +46,11 @@ pub struct MassProperties {
     pub joint_inertia: [f64; 2],
     /// Trunk servo gains: stiffness, N m/rad, and damping, N m s/rad.
     pub kp: [f64; 2],
+    /// Trunk servo damping, N m s/rad.
     pub kv: [f64; 2],
     /// `kp/M_ii`, `kv/M_ii`: the servo alone, (rad/s)², 1/s (the seed's 900 and 60).
     pub servo_omega_n2: [f64; 2],
+    /// `kv/M_ii`: the servo's `2 zeta omega_n`, 1/s (the seed's 60).
     pub servo_2zeta_omega_n: [f64; 2],
     /// Support polygon of double support `[x_min, x_max, y_min, y_max]`, m.
     pub support: [f64; 4],
@@ -64,6 +66,7 @@ impl MassProperties {
 /// `a` and `b` of one prediction (rows: zmp_x, zmp_y; columns: x_cr, y_cr).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Pendulum {
+    /// Static gains from CoM reference to ZMP, dimensionless.
     pub a: [[f64; 2]; 2],
     /// s².
     pub b: [[f64; 2]; 2],
@@ -76,17 +79,23 @@ pub struct OperatingPoint {
     pub com_ref: [f64; 2],
     /// Trunk references and the static angles the servos settle at, rad.
     pub theta_ref: [f64; 2],
+    /// The static angles the servos settle at, rad.
     pub theta: [f64; 2],
     /// Whole-robot CoM at that posture, m.
     pub com: [f64; 3],
+    /// The seed's point-mass prediction (eqs. 6-15).
     pub seed: Pendulum,
+    /// The rigid multibody prediction.
     pub multibody: Pendulum,
+    /// The multibody prediction through the servos.
     pub servo: Pendulum,
     /// Servo closed loop per trunk joint with gravity: rad/s and 1.
     pub omega_n: [f64; 2],
+    /// Damping ratio of each trunk joint's servo loop.
     pub zeta: [f64; 2],
     /// `dZMP_i/dtheta_j` (static, m/rad) and `dZMP_i/dtheta_j''` (m s²/rad) of the rigid robot.
     pub zmp_per_angle: [[f64; 2]; 2],
+    /// `dZMP_i/dtheta_j''` of the rigid robot, m s²/rad.
     pub zmp_per_angular_acceleration: [[f64; 2]; 2],
     /// Static trunk angle per unit reference, `(Kp - K_g)^-1 Kp`.
     pub servo_static_gain: [[f64; 2]; 2],
@@ -223,6 +232,9 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     ]
 }
 
+/// Central-difference step of the trunk angles, rad.
+const DIFF_STEP: f64 = 1e-5;
+
 /// The three predictions at the operating point whose CoM reference (eq. 26) is `com_ref`.
 pub fn predict(
     t: &Silo2,
@@ -235,31 +247,87 @@ pub fn predict(
         (com_ref[1] - props.com_upright[1]) / kr,
     ];
     let mut d = t.stand()?;
-    let h = 1e-5;
-    // Static equilibrium of the servos: kp (theta_ref - theta) + G(theta) = 0 (Newton).
-    let kg_at = |d: &mut Data<'_>, th: [f64; 2]| -> [[f64; 2]; 2] {
-        let mut k = [[0.0; 2]; 2];
-        for j in 0..2 {
-            let mut p = th;
-            let mut q = th;
-            p[j] += h;
-            q[j] -= h;
-            let gp = gravity_torque(t, d, p);
-            let gq = gravity_torque(t, d, q);
-            for i in 0..2 {
-                k[i][j] = (gp[i] - gq[i]) / (2.0 * h);
-            }
-        }
-        k
+    let theta = static_posture(t, &mut d, props, theta_ref)?;
+    let kg = gravity_stiffness(t, &mut d, theta);
+    let j_static = zmp_per_angle(t, &mut d, theta);
+    pose(t, &mut d, theta);
+    let com = t.com(&d);
+    let j_acc = zmp_per_angular_acceleration(t, &d, props.total_mass, com);
+
+    // Servo: (Kp - Kg) dtheta = Kp dtheta_ref.
+    let s0 = mul2(
+        inv2([
+            [props.kp[0] - kg[0][0], -kg[0][1]],
+            [-kg[1][0], props.kp[1] - kg[1][1]],
+        ]),
+        [[props.kp[0], 0.0], [0.0, props.kp[1]]],
+    );
+    let scale = |m: [[f64; 2]; 2], s: f64| m.map(|row| row.map(|v| v * s));
+    let multibody = Pendulum {
+        a: scale(j_static, 1.0 / kr),
+        b: scale(j_acc, -1.0 / kr),
     };
+    let servo = Pendulum {
+        a: scale(mul2(j_static, s0), 1.0 / kr),
+        b: scale(mul2(j_acc, s0), -1.0 / kr),
+    };
+    let bz = com[2] / GRAVITY;
+    let seed = Pendulum {
+        a: [[1.0, 0.0], [0.0, 1.0]],
+        b: [[bz, 0.0], [0.0, bz]],
+    };
+    let (omega_n, zeta) = servo_loop(t, &mut d, props, kg)?;
+    Ok(OperatingPoint {
+        com_ref,
+        theta_ref,
+        theta,
+        com,
+        seed,
+        multibody,
+        servo,
+        omega_n,
+        zeta,
+        zmp_per_angle: j_static,
+        zmp_per_angular_acceleration: j_acc,
+        servo_static_gain: s0,
+    })
+}
+
+/// `dG/dtheta` (N m/rad) of the gravity torques on the trunk joints at `th`, by central
+/// differences.
+fn gravity_stiffness(t: &Silo2, d: &mut Data<'_>, th: [f64; 2]) -> [[f64; 2]; 2] {
+    let h = DIFF_STEP;
+    let mut k = [[0.0; 2]; 2];
+    for j in 0..2 {
+        let mut p = th;
+        let mut q = th;
+        p[j] += h;
+        q[j] -= h;
+        let gp = gravity_torque(t, d, p);
+        let gq = gravity_torque(t, d, q);
+        for i in 0..2 {
+            k[i][j] = (gp[i] - gq[i]) / (2.0 * h);
+        }
+    }
+    k
+}
+
+/// The trunk angles (rad) the servos settle at for the reference `theta_ref`: the static
+/// equilibrium `kp (theta_ref - theta) + G(theta) = 0`, by Newton.
+fn static_posture(
+    t: &Silo2,
+    d: &mut Data<'_>,
+    props: &MassProperties,
+    theta_ref: [f64; 2],
+) -> Result<[f64; 2], TwinError> {
     let mut theta = theta_ref;
     for _ in 0..20 {
-        let g = gravity_torque(t, &mut d, theta);
+        let g = gravity_torque(t, d, theta);
         let f = [
             props.kp[0] * (theta_ref[0] - theta[0]) + g[0],
             props.kp[1] * (theta_ref[1] - theta[1]) + g[1],
         ];
-        let k = kg_at(&mut d, theta);
+        let k = gravity_stiffness(t, d, theta);
         let jac = [
             [-props.kp[0] + k[0][0], k[0][1]],
             [k[1][0], -props.kp[1] + k[1][1]],
@@ -276,29 +344,40 @@ pub fn predict(
             format!("no static posture for the trunk reference {theta_ref:?} rad"),
         ));
     }
-    let kg = kg_at(&mut d, theta);
+    Ok(theta)
+}
 
-    // Static: dZMP/dtheta = dCoM/dtheta (statically the ZMP is the CoM's projection, eq. 10).
+/// Static `dZMP_i/dtheta_j` (m/rad) at `theta`: statically the ZMP is the CoM's projection
+/// (eq. 10), so it is `dCoM/dtheta`, by central differences.
+fn zmp_per_angle(t: &Silo2, d: &mut Data<'_>, theta: [f64; 2]) -> [[f64; 2]; 2] {
+    let h = DIFF_STEP;
     let mut j_static = [[0.0; 2]; 2];
     for j in 0..2 {
         let mut p = theta;
         let mut q = theta;
         p[j] += h;
         q[j] -= h;
-        pose(t, &mut d, p);
-        let cp = t.com(&d);
-        pose(t, &mut d, q);
-        let cq = t.com(&d);
+        pose(t, d, p);
+        let cp = t.com(d);
+        pose(t, d, q);
+        let cq = t.com(d);
         for i in 0..2 {
             j_static[i][j] = (cp[i] - cq[i]) / (2.0 * h);
         }
     }
+    j_static
+}
 
-    // Dynamic: dZMP/dtheta'' from the rate of angular momentum about the floor origin.
-    pose(t, &mut d, theta);
-    let com = t.com(&d);
+/// Dynamic `dZMP_i/dtheta_j''` (m s²/rad) of the rigid robot of `mass` (kg) posed in `d`
+/// with its CoM at `com` (m): from the rate of angular momentum about the floor origin of the
+/// bodies the trunk joints move.
+fn zmp_per_angular_acceleration(
+    t: &Silo2,
+    d: &Data<'_>,
+    mass: f64,
+    com: [f64; 3],
+) -> [[f64; 2]; 2] {
     let m = &t.model;
-    let mass = props.total_mass;
     let moved: Vec<usize> = (0..m.nbody() as usize)
         .filter(|&b| {
             let mut x = b;
@@ -350,29 +429,18 @@ pub fn predict(
         j_acc[0][j] = -(ldot[1] + com[0] * fz) / (mass * GRAVITY);
         j_acc[1][j] = (ldot[0] - com[1] * fz) / (mass * GRAVITY);
     }
+    j_acc
+}
 
-    // Servo: (Kp - Kg) dtheta = Kp dtheta_ref.
-    let s0 = mul2(
-        inv2([
-            [props.kp[0] - kg[0][0], -kg[0][1]],
-            [-kg[1][0], props.kp[1] - kg[1][1]],
-        ]),
-        [[props.kp[0], 0.0], [0.0, props.kp[1]]],
-    );
-    let scale = |m: [[f64; 2]; 2], s: f64| m.map(|row| row.map(|v| v * s));
-    let multibody = Pendulum {
-        a: scale(j_static, 1.0 / kr),
-        b: scale(j_acc, -1.0 / kr),
-    };
-    let servo = Pendulum {
-        a: scale(mul2(j_static, s0), 1.0 / kr),
-        b: scale(mul2(j_acc, s0), -1.0 / kr),
-    };
-    let bz = com[2] / GRAVITY;
-    let seed = Pendulum {
-        a: [[1.0, 0.0], [0.0, 1.0]],
-        b: [[bz, 0.0], [0.0, bz]],
-    };
+/// Natural frequency (rad/s) and damping ratio of each trunk joint's servo loop with gravity
+/// (stiffness `kp - dG/dtheta` from `kg`) on the joint's inertia from the mass matrix of `d`.
+fn servo_loop(
+    t: &Silo2,
+    d: &mut Data<'_>,
+    props: &MassProperties,
+    kg: [[f64; 2]; 2],
+) -> Result<([f64; 2], [f64; 2]), TwinError> {
+    let m = &t.model;
     let nv = m.nv() as usize;
     let mut full = vec![0.0; nv * nv];
     d.full_m(&mut full)
@@ -386,18 +454,5 @@ pub fn predict(
         omega_n[k] = (stiff / inertia).sqrt();
         zeta[k] = props.kv[k] / (2.0 * (inertia * stiff).sqrt());
     }
-    Ok(OperatingPoint {
-        com_ref,
-        theta_ref,
-        theta,
-        com,
-        seed,
-        multibody,
-        servo,
-        omega_n,
-        zeta,
-        zmp_per_angle: j_static,
-        zmp_per_angular_acceleration: j_acc,
-        servo_static_gain: s0,
-    })
+    Ok((omega_n, zeta))
 }

@@ -155,7 +155,19 @@ pub fn write_html(
         }
     );
 
-    // The twin.
+    twin_section(&mut h, s, upright);
+    zmp_section(&mut h, s);
+    identification_section(&mut h, s, ident);
+    closed_loop_section(&mut h, s);
+    diagnosis_section(&mut h, s);
+    frames_section(&mut h, s);
+    h.push_str("</body></html>\n");
+    zmp_files::write_file(path, zmp_files::Kind::Html, h.as_bytes(), false)?;
+    Ok(())
+}
+
+/// The twin's mass properties and servo gains.
+fn twin_section(h: &mut String, s: &Summary, upright: &OperatingPoint) {
     let m = &s.mass;
     let _ = write!(
         h,
@@ -188,8 +200,10 @@ pub fn write_html(
         m.support[3],
         m.reference_gain()
     );
+}
 
-    // ZMP measurement.
+/// The ZMP measurement: the static (eq. 10) and dynamic checks and the contact budget.
+fn zmp_section(h: &mut String, s: &Summary) {
     h.push_str(
         "<h2>ZMP measurement</h2>\n<p>Static (seed eq. 10): at rest at each operating point, the \
          load-cell ZMP against MuJoCo's contact centre of pressure and the CoM's projection.</p>\n\
@@ -272,8 +286,10 @@ pub fn write_html(
         h.push_str("</tr>\n");
     }
     h.push_str("</table>\n");
+}
 
-    // Identification.
+/// The campaign and the `a`, `b` table against the predictions.
+fn identification_section(h: &mut String, s: &Summary, ident: &Identification) {
     let c = &s.campaign;
     let _ = write!(
         h,
@@ -332,8 +348,10 @@ pub fn write_html(
     for w in &ident.warnings {
         let _ = writeln!(h, "<p class=note>identify: {}</p>", esc(w));
     }
+}
 
-    // Closed loop.
+/// The closed-loop step and load: the twin against the identified model.
+fn closed_loop_section(h: &mut String, s: &Summary) {
     let cl = &s.closed_loop;
     let e = &cl.experiment;
     let (tw, mo) = (&cl.comparison.twin, &cl.comparison.model);
@@ -375,8 +393,10 @@ pub fn write_html(
         td(mo.final_error_m * 1e3, 3),
         td(cl.comparison.final_theta_model, 3),
     );
+}
 
-    // Diagnosis.
+/// The diagnosis's findings and the stance resonance.
+fn diagnosis_section(h: &mut String, s: &Summary) {
     let d = &s.diagnosis;
     let _ = write!(
         h,
@@ -405,9 +425,11 @@ pub fn write_html(
         );
     }
     h.push_str("</ul>\n");
-    stance_section(&mut h, s);
+    stance_section(h, s);
+}
 
-    // Frames.
+/// The robot's frames during the disturbance experiment.
+fn frames_section(h: &mut String, s: &Summary) {
     h.push_str("<h2>The robot during the disturbance experiment</h2>\n");
     if let Some(n) = &s.frames_note {
         let _ = writeln!(h, "<p class=note>{}</p>", esc(n));
@@ -421,9 +443,6 @@ pub fn write_html(
             esc(&name)
         );
     }
-    h.push_str("</body></html>\n");
-    zmp_files::write_file(path, zmp_files::Kind::Html, h.as_bytes(), false)?;
-    Ok(())
 }
 
 /// The stance resonance swept on the model file and the verdict on the named mode.

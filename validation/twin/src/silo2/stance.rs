@@ -46,10 +46,13 @@ const SWING: f64 = 0.02;
 /// One swept point.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct StancePoint {
+    /// The axis swept.
     pub axis: Axis,
     /// rad/s.
     pub omega: f64,
+    /// `|ZMP / rigid ZMP|`, dimensionless.
     pub magnitude: f64,
+    /// Its phase, degrees.
     pub phase_deg: f64,
 }
 
@@ -62,12 +65,16 @@ impl StancePoint {
 /// A mode: `structural_mode`'s law, or a named effect's mode parameters: rad/s, 1, 1.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Mode {
+    /// Natural frequency, rad/s.
     pub omega_n: f64,
+    /// Damping ratio.
     pub zeta: f64,
+    /// Share of the moving mass on the flexible part (1: all of it).
     pub share: f64,
 }
 
 impl Mode {
+    /// The mode's factor `(1 - share) + share wn²/(s² + 2 zeta wn s + wn²)` at `s = j omega` (rad/s).
     pub fn factor(&self, omega: f64) -> Complex64 {
         let s = Complex64::new(0.0, omega);
         let w2 = self.omega_n * self.omega_n;
@@ -194,22 +201,28 @@ pub fn named_mode(d: &DiagnosisSummary, axis: Axis) -> Option<(String, Mode)> {
 /// What the stance of one axis is, and what the named mode is of it.
 #[derive(Debug, Clone, Serialize)]
 pub struct AxisStance {
+    /// The axis.
     pub axis: Axis,
+    /// The swept points.
     pub swept: Vec<StancePoint>,
     /// Largest swept factor and where, rad/s.
     pub peak_magnitude: f64,
+    /// Where the largest swept factor is, rad/s.
     pub peak_omega: f64,
     /// The law fitted to the sweep and its RMS misfit.
     pub fitted: Mode,
+    /// RMS misfit of the fitted law.
     pub fit_rms: f64,
     /// The diagnosis's mode on this axis and its effect.
     pub named: Option<Mode>,
+    /// The effect the diagnosis named with it.
     pub named_effect: Option<String>,
     /// At the named mode's frequency, `|ZMP_i / x_cr,i|`: the twin's (measured) and the model's
     /// with the mode (predicted).
     pub at_named: Option<(f64, f64)>,
     /// `physical`, `in-band surrogate`, or `none named`.
     pub verdict: String,
+    /// Why that verdict.
     pub why: String,
 }
 

@@ -15,13 +15,18 @@ use zmp_models::EffectKind;
 /// One row of the `a`, `b` table.
 #[derive(Debug, Clone, Serialize)]
 pub struct ParameterRow {
+    /// The parameter's model-file key (`a11` .. `b22`, `omega_n`, `zeta`).
     pub name: String,
     /// Seed eqs. 6-15 (point mass), rigid multibody, multibody through the servos (means over
     /// the campaign's operating points).
     pub seed: f64,
+    /// The rigid multibody prediction.
     pub multibody: f64,
+    /// The multibody prediction through the servos.
     pub servo: f64,
+    /// The value identified from the twin's campaign.
     pub identified: f64,
+    /// Its standard error.
     pub identified_stderr: f64,
     /// After the diagnosis loop added its effects (`None` if it added none).
     pub after_loop: Option<f64>,
@@ -30,9 +35,13 @@ pub struct ParameterRow {
 /// The diagnosis, in short.
 #[derive(Debug, Clone, Serialize)]
 pub struct DiagnosisSummary {
+    /// The diagnosis's verdict sentence.
     pub verdict: String,
+    /// The noise floor of the diagnosis's held-out error measure.
     pub noise_floor: f64,
+    /// Held-out error of the identified model (the same measure).
     pub baseline_error: f64,
+    /// Held-out error of the final model (the same measure).
     pub final_error: f64,
     /// Effects added, with the held-out error after each.
     pub selected: Vec<(String, f64)>,
@@ -40,34 +49,52 @@ pub struct DiagnosisSummary {
     pub findings: Vec<(String, bool, String)>,
     /// Fitted parameters of the final model's added effects.
     pub parameters: Vec<(String, f64)>,
+    /// Where the final model file was written, if it was.
     pub final_model: Option<PathBuf>,
 }
 
+/// The twin's campaign, in short.
 #[derive(Debug, Clone, Serialize)]
 pub struct CampaignSummary {
+    /// Records measured.
     pub records: usize,
+    /// Samples over all records.
     pub rows: usize,
+    /// Simulated time, s.
     pub simulated_s: f64,
+    /// Wall time of the campaign, s.
     pub wall_s: f64,
+    /// The ZMP sensor, described.
     pub sensor: String,
 }
 
+/// The closed-loop experiment, in short.
 #[derive(Debug, Clone, Serialize)]
 pub struct ClosedLoopSummary {
+    /// The experiment's design.
     pub experiment: Experiment,
+    /// The twin's run against the model's.
     pub comparison: LoopComparison,
+    /// Wall time of both runs, s.
     pub wall_s: f64,
 }
 
 /// `StepExperiment`, serialisable.
 #[derive(Debug, Clone, Serialize)]
 pub struct Experiment {
+    /// ZMP reference before the step, m.
     pub zmp_ref_before: [f64; 2],
+    /// ZMP reference after the step, m.
     pub zmp_ref_after: [f64; 2],
+    /// When the load is placed, s.
     pub load_time: f64,
+    /// Mass of the load, kg.
     pub load_mass: f64,
+    /// Where the load sits, absolute ZMP-plane coordinates, m.
     pub load_position: [f64; 2],
+    /// Length of the run, s.
     pub duration: f64,
+    /// Controller sample period, s.
     pub controller_period: f64,
 }
 
@@ -88,32 +115,51 @@ impl From<&StepExperiment> for Experiment {
 /// Everything the run found (`summary.json`).
 #[derive(Debug, Clone, Serialize)]
 pub struct Summary {
+    /// The summary's format string.
     pub format: &'static str,
+    /// The model file checked.
     pub model_file: String,
+    /// The short campaign was run.
     pub short: bool,
     /// The campaign was extended to 50 rad/s.
     pub extended: bool,
+    /// Output folder.
     pub output: PathBuf,
+    /// The twin's mass properties and servo gains.
     pub mass: MassProperties,
+    /// The three predictions of `a`, `b` at each operating point.
     pub predictions: Vec<OperatingPoint>,
+    /// The static checks of the seed's eq. 10 (ZMP of the load cells against the CoM and the centre of pressure).
     pub eq10: Vec<StaticCheck>,
+    /// The dynamic checks during trunk sines (load-cell ZMP against the momentum and cart-table ZMP).
     pub dynamic: Vec<DynamicCheck>,
+    /// The contact-softness budget.
     pub budget: Vec<BudgetRow>,
+    /// The campaign.
     pub campaign: CampaignSummary,
+    /// The `a`, `b` table.
     pub parameters: Vec<ParameterRow>,
+    /// Reduced chi-squared of the identification.
     pub reduced_chi2: f64,
+    /// Records the identification left out, and why.
     pub excluded_records: Vec<(usize, String)>,
+    /// The identification's warnings.
     pub identify_warnings: Vec<String>,
+    /// The closed-loop experiment.
     pub closed_loop: ClosedLoopSummary,
+    /// The diagnosis.
     pub diagnosis: DiagnosisSummary,
     /// The stance resonance swept on the model file against the mode the diagnosis named.
     pub stance: Vec<super::stance::AxisStance>,
     /// Frame files (relative to the output folder), or why there are none.
     pub frames: Vec<PathBuf>,
+    /// Why there are no frames, if there are none.
     pub frames_note: Option<String>,
+    /// Wall time of the whole run, s.
     pub wall_s: f64,
 }
 
+/// The diagnosis `d`, in short; `final_model` is where its final model was written.
 pub fn summarise_diagnosis(d: &Diagnosis, final_model: Option<PathBuf>) -> DiagnosisSummary {
     let selected: Vec<String> = d.selected.iter().map(|(e, _)| e.clone()).collect();
     let parameters = d
@@ -138,6 +184,7 @@ pub fn summarise_diagnosis(d: &Diagnosis, final_model: Option<PathBuf>) -> Diagn
     }
 }
 
+/// The rows of the `a`, `b` table (and `omega_n`, `zeta`) at the campaign's operating points.
 pub fn parameter_rows(
     preds: &[OperatingPoint],
     ident: &Identification,

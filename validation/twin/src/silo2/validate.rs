@@ -51,22 +51,32 @@ pub const FRAME_TIMES: [f64; 6] = [0.0, 20.0, 79.0, 82.0, 100.0, 160.0];
 pub enum Frames {
     /// By a child process of this program (`<exe> silo2 render-frames`), so that a failing
     /// OpenGL stack cannot take the validation down with it.
-    Render { exe: PathBuf },
+    Render {
+        /// This program's executable.
+        exe: PathBuf,
+    },
     /// Not at all, for this reason.
     Skip(String),
 }
 
+/// What `validate silo2` runs and where it writes.
 #[derive(Debug, Clone)]
 pub struct ValidateOptions {
+    /// The model file checked against the twin.
     pub model: PathBuf,
+    /// Output folder.
     pub out: PathBuf,
+    /// The short campaign (the demo's).
     pub short: bool,
     /// The campaign extended to 50 rad/s ([`TwinDesign::extended`]).
     pub extended: bool,
+    /// Overwrite the files a previous run wrote.
     pub force: bool,
+    /// Worker threads.
     pub threads: usize,
     /// No progress bars (and no text).
     pub quiet: bool,
+    /// How the frames of the disturbance experiment are made.
     pub frames: Frames,
     /// Delay of the ZMP measurement, s (campaign and closed loop; stated in `campaign.toml`).
     pub zmp_delay: f64,
@@ -75,7 +85,9 @@ pub struct ValidateOptions {
 /// The robot's posture at one frame.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct FrameState {
+    /// Time of the frame, s.
     pub t: f64,
+    /// MuJoCo's qpos at that time.
     pub qpos: Vec<f64>,
     /// The 4 kg load is on.
     pub loaded: bool,
