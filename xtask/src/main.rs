@@ -7,11 +7,13 @@ mod demo;
 mod demo_com;
 mod diagnose;
 mod env;
+mod fleet;
 mod fmu;
 mod identify;
 mod links;
 mod loop_cmd;
 mod robust;
+mod scale;
 mod setup;
 mod simulate;
 mod twin;
@@ -146,6 +148,18 @@ enum Cmd {
         #[arg(long)]
         force: bool,
     },
+    /// The out-of-sample suite (robots of zmp-indep-sim through the user's loop), one unit per
+    /// draw, in one process or as shards on many machines (docs/src/scale-out.md); a whole run
+    /// merges at the end: table.md, report.md and result.json in OUT.
+    Suite(scale::SuiteArgs),
+    /// Combine a job folder's unit files (suite, fleet, calibrate-com --shard) into the
+    /// table, report and JSON the one-process run writes (replacing the merge's own earlier
+    /// files there); name failed and missing units (then exit non-zero); print the critical
+    /// path and the predicted wall time on 1, 2, 8, 64 and 256 workers.
+    Merge(scale::MergeArgs),
+    /// The user's loop on every campaign folder under DIR (one robot each), one unit per
+    /// campaign, in one process or sharded; a campaign that cannot be read fails alone.
+    Fleet(fleet::FleetArgs),
     /// Build the FMI 2.0 and FMI 3.0 co-simulation FMUs of a model file: zmp_plant.fmu,
     /// zmp_controller.fmu and their _fmi3 versions (Linux 64-bit). Parameter start values are
     /// the model file's; the GUID changes with the model's content.
@@ -446,6 +460,9 @@ fn dispatch(command: Cmd) -> Result<()> {
             json,
         }),
         Cmd::Demo { out, force, json } => demo::demo(&out, force, json),
+        Cmd::Suite(a) => scale::suite(a),
+        Cmd::Merge(a) => scale::merge(&a.dir, a.json),
+        Cmd::Fleet(a) => fleet::fleet(a),
         Cmd::CalibrateCom {
             out,
             quick,

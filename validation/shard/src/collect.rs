@@ -189,6 +189,17 @@ impl Collected {
     }
 }
 
+/// What a merge writes and prints: the command's own rendering of the units' outcomes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Merged {
+    /// Files for the job folder (e.g. `table.md`, `report.md`, `result.json`).
+    pub files: Vec<(String, Vec<u8>)>,
+    /// The result as JSON (`--json`).
+    pub json: Value,
+    /// The result for a terminal.
+    pub text: String,
+}
+
 /// Writes a merge's output files into the job folder. They are the merge's own (it replaces
 /// them when run again, e.g. after a failed unit was re-run); the job's files and the unit
 /// files cannot be named.

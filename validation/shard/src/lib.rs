@@ -27,6 +27,6 @@ pub mod job;
 mod partition;
 pub mod unit;
 
-pub use collect::{collect, Collected};
+pub use collect::{collect, Collected, Merged};
 pub use job::{open_job, read_job, run_units, Job, JobKind, RunOptions, ShardRun};
 pub use partition::{partition, shard_units, Shard, UnitSpec};
