@@ -58,7 +58,11 @@ pub fn calibrate_com(a: &CalibrateArgs) -> Result<()> {
 /// `cargo xtask merge DIR` of a `calibrate-com --shard` job (runs `zmp-twin sabian merge`).
 pub fn merge(dir: &Path, json: bool) -> Result<()> {
     crate::setup::setup(true)?;
-    let mut args: Vec<String> = vec!["sabian".into(), "merge".into(), abs(dir).display().to_string()];
+    let mut args: Vec<String> = vec![
+        "sabian".into(),
+        "merge".into(),
+        abs(dir).display().to_string(),
+    ];
     if json {
         args.push("--json".into());
     }

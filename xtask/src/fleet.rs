@@ -54,16 +54,20 @@ pub fn unit_id(name: &str) -> String {
     }
 }
 
-/// Bytes of the files of a folder (not recursive): the campaign's expected cost.
+/// Bytes of the files in a folder and its subfolders: a campaign's expected cost (the loop's
+/// work grows with its records' samples).
 fn size(dir: &Path) -> f64 {
-    std::fs::read_dir(dir)
-        .map(|it| {
-            it.filter_map(|e| e.ok()?.metadata().ok())
-                .filter(|m| m.is_file())
-                .map(|m| m.len() as f64)
-                .sum()
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0.0;
+    };
+    entries
+        .filter_map(|e| e.ok())
+        .map(|e| match e.file_type() {
+            Ok(t) if t.is_dir() => size(&e.path()),
+            Ok(t) if t.is_file() => e.metadata().map_or(0.0, |m| m.len() as f64),
+            _ => 0.0,
         })
-        .unwrap_or(0.0)
+        .sum()
 }
 
 /// The fleet's job: one unit per campaign folder of `dir`, in name order.
@@ -73,7 +77,10 @@ pub fn job(dir: &Path, time_limit: u64) -> Result<(Job, Vec<(String, PathBuf)>)>
     let mut folders: Vec<PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.is_dir())
-        .filter(|p| !p.file_name().is_some_and(|n| n.to_string_lossy().starts_with('.')))
+        .filter(|p| {
+            !p.file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with('.'))
+        })
         .collect();
     folders.sort();
     if folders.is_empty() {
@@ -161,7 +168,11 @@ pub fn render(c: &Collected) -> Result<zmp_shard::Merged> {
             "| {} | {} | {} | {:.2} | {:.2} | {} |\n",
             d.spec.id,
             o["outcome"].as_str().unwrap_or("?"),
-            if found.is_empty() { "-".into() } else { found.join(", ") },
+            if found.is_empty() {
+                "-".into()
+            } else {
+                found.join(", ")
+            },
             first / floor,
             last / floor,
             if limited { "reached" } else { "-" },

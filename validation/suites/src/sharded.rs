@@ -281,8 +281,16 @@ pub fn render(c: &Collected) -> Result<Merged> {
             "\nIncomplete: {} of {} draws merged; failed: {}; missing: {}.\n",
             outcomes.len(),
             cases.len(),
-            if failed.is_empty() { "none".into() } else { failed.join(", ") },
-            if c.missing.is_empty() { "none".into() } else { c.missing.join(", ") },
+            if failed.is_empty() {
+                "none".into()
+            } else {
+                failed.join(", ")
+            },
+            if c.missing.is_empty() {
+                "none".into()
+            } else {
+                c.missing.join(", ")
+            },
         ));
     }
     let mut json_text = serde_json::to_string_pretty(&result)?;
