@@ -16,6 +16,9 @@ pub struct CalibrateArgs {
     pub markdown: bool,
     pub json: bool,
     pub force: bool,
+    /// `--shard i/n` / `--unit ID`: part of the units into the job folder `out`.
+    pub shard: Option<zmp_shard::Shard>,
+    pub unit: Option<String>,
 }
 
 fn abs(p: &Path) -> PathBuf {
@@ -39,6 +42,12 @@ pub fn calibrate_com(a: &CalibrateArgs) -> Result<()> {
     }
     if let Some(d) = a.draws {
         args.extend(["--draws".into(), d.to_string()]);
+    }
+    if let Some(s) = a.shard {
+        args.extend(["--shard".into(), s.to_string()]);
+    }
+    if let Some(u) = &a.unit {
+        args.extend(["--unit".into(), u.clone()]);
     }
     if let Some(f) = &a.figures {
         args.extend(["--figures".into(), abs(f).display().to_string()]);

@@ -4,10 +4,11 @@
 //! with the reader's error (file, line, field); the other campaigns are not affected.
 
 use crate::loop_cmd::{run_loop, LoopArgs};
-use crate::scale::{after_part, run_job, run_options};
+use crate::scale::run_options;
 use anyhow::{bail, Context, Result};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
+use zmp_shard::cli::{finish_part, run_part};
 use zmp_shard::{Collected, Job, JobKind, Shard, UnitSpec};
 
 /// `cargo xtask fleet`.
@@ -132,7 +133,7 @@ pub fn fleet(a: FleetArgs) -> Result<()> {
     let whole = a.shard.is_none() && a.unit.is_none();
     let opts = run_options(a.shard, a.unit, false);
     let loops = a.out.join("loops");
-    let r = run_job(&a.out, &job, &opts, a.json, |spec| {
+    let r = run_part(&a.out, &job, &opts, a.json, |spec| {
         let (_, path) = campaigns
             .iter()
             .find(|(id, _)| *id == spec.id)
@@ -142,7 +143,7 @@ pub fn fleet(a: FleetArgs) -> Result<()> {
     if whole {
         crate::scale::merge(&a.out, a.json)
     } else {
-        after_part(&a.out, &r, a.json)
+        finish_part(&a.out, &r, a.json)
     }
 }
 

@@ -147,6 +147,14 @@ enum Cmd {
         /// Overwrite the files an earlier run wrote in OUT.
         #[arg(long)]
         force: bool,
+        /// Run only part i of n of the units (blocks of noise draws, one walk pair per model
+        /// and run) into the job folder OUT; `cargo xtask merge OUT` then writes what the
+        /// one-process run writes, and tables.md (docs/src/scale-out.md).
+        #[arg(long, value_name = "i/n", conflicts_with_all = ["unit", "figures", "markdown"])]
+        shard: Option<zmp_shard::Shard>,
+        /// Run one unit alone into the job folder OUT (one merge named as failed or missing).
+        #[arg(long, value_name = "ID", conflicts_with_all = ["figures", "markdown"])]
+        unit: Option<String>,
     },
     /// The out-of-sample suite (robots of zmp-indep-sim through the user's loop), one unit per
     /// draw, in one process or as shards on many machines (docs/src/scale-out.md); a whole run
@@ -472,6 +480,8 @@ fn dispatch(command: Cmd) -> Result<()> {
             markdown,
             json,
             force,
+            shard,
+            unit,
         } => calibrate::calibrate_com(&calibrate::CalibrateArgs {
             out,
             quick,
@@ -481,6 +491,8 @@ fn dispatch(command: Cmd) -> Result<()> {
             markdown,
             json,
             force,
+            shard,
+            unit,
         }),
         Cmd::Identify {
             campaign,

@@ -3,10 +3,10 @@
 //! and `calibrate-com --shard` share with them. The contract (units, `--shard i/n`, unit files,
 //! the cost model) is `zmp_shard`'s; this module only parses and prints.
 
-use anyhow::{bail, Result};
-use serde_json::{json, Value};
+use anyhow::Result;
 use std::path::{Path, PathBuf};
-use zmp_shard::{Collected, Job, JobKind, Merged, RunOptions, Shard, ShardRun, UnitSpec};
+use zmp_shard::cli::{finish_merge, finish_part, run_part};
+use zmp_shard::{Collected, JobKind, RunOptions, Shard};
 use zmp_suites::sharded::{self, Range};
 
 /// `cargo xtask suite`.
@@ -50,71 +50,6 @@ pub struct MergeArgs {
     pub json: bool,
 }
 
-/// Runs the units `opts` picks of `job` in `out` and says what ran (as JSON with `json`).
-pub fn run_job(
-    out: &Path,
-    job: &Job,
-    opts: &RunOptions,
-    json_out: bool,
-    run: impl Fn(&UnitSpec) -> Result<Value> + Sync,
-) -> Result<ShardRun> {
-    zmp_shard::open_job(out, job)?;
-    let what = match &opts.only {
-        Some(id) => format!("unit {id}"),
-        None => format!("shard {}", opts.shard),
-    };
-    if !opts.quiet {
-        eprintln!(
-            "{what} of {} units -> {} ({} at a time)",
-            job.units.len(),
-            out.display(),
-            opts.threads
-        );
-    }
-    let r = zmp_shard::run_units(out, job, opts, run)?;
-    if !r.kept.is_empty() && !opts.quiet {
-        eprintln!(
-            "{} units already have a result and were left as they are",
-            r.kept.len()
-        );
-    }
-    if json_out && (opts.only.is_some() || opts.shard != Shard::WHOLE) {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&json!({
-                "job": out, "part": what, "ran": r.ran, "failed": r.failed, "kept": r.kept,
-            }))?
-        );
-    }
-    Ok(r)
-}
-
-/// After a shard or a single unit: the next step, or the failures.
-pub fn after_part(out: &Path, r: &ShardRun, json_out: bool) -> Result<()> {
-    if !json_out {
-        println!(
-            "ran {} units ({} failed){}; when every shard is done: cargo xtask merge {}",
-            r.ran.len(),
-            r.failed.len(),
-            if r.kept.is_empty() {
-                String::new()
-            } else {
-                format!(", kept {}", r.kept.len())
-            },
-            out.display()
-        );
-    }
-    if !r.failed.is_empty() {
-        bail!(
-            "{} units failed ({}); their errors are in {}/units/<id>.json and merge names them",
-            r.failed.len(),
-            r.failed.join(", "),
-            out.display()
-        );
-    }
-    Ok(())
-}
-
 /// Options of a run with `--shard` / `--unit` (`keep_done`: never run a unit with a result
 /// again); units run `--threads` at a time (default: every core).
 pub fn run_options(shard: Option<Shard>, unit: Option<String>, keep_done: bool) -> RunOptions {
@@ -132,7 +67,7 @@ pub fn suite(a: SuiteArgs) -> Result<()> {
     let (job, cases) = sharded::job(a.range, a.first_seed)?;
     let whole = a.shard.is_none() && a.unit.is_none();
     let opts = run_options(a.shard, a.unit, a.range == Range::HeldOut);
-    let r = run_job(&a.out, &job, &opts, a.json, |spec| {
+    let r = run_part(&a.out, &job, &opts, a.json, |spec| {
         let case = cases
             .iter()
             .find(|c| sharded::unit_id(c) == spec.id)
@@ -142,7 +77,7 @@ pub fn suite(a: SuiteArgs) -> Result<()> {
     if whole {
         merge(&a.out, a.json)
     } else {
-        after_part(&a.out, &r, a.json)
+        finish_part(&a.out, &r, a.json)
     }
 }
 
@@ -166,56 +101,25 @@ fn rerun_hint(c: &Collected, dir: &Path) -> String {
     }
 }
 
-/// Writes a merge's files, prints the result and the cost model, and fails naming the failed
-/// and missing units.
-pub fn emit(dir: &Path, c: &Collected, m: &Merged, json_out: bool) -> Result<()> {
-    let files = &m.files;
-    zmp_shard::collect::write_outputs(dir, files)?;
-    let cost = c.cost();
-    if json_out {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&json!({
-                "result": m.json, "units": c.summary(), "cost": cost,
-            }))?
-        );
-    } else {
-        println!("{}", m.text);
-        println!(
-            "merged {} of {} units into {} ({})",
-            c.done.len(),
-            c.job.units.len(),
-            dir.display(),
-            files
-                .iter()
-                .map(|f| f.0.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
-        println!("{}", cost.text());
-    }
-    let problems = c.problems_text(&rerun_hint(c, dir));
-    if !problems.is_empty() {
-        eprint!("{problems}");
-    }
-    if !c.complete() {
-        bail!(
-            "{} units failed and {} are missing in {}",
-            c.failed.len(),
-            c.missing.len(),
-            dir.display()
-        );
-    }
-    Ok(())
-}
-
 /// `cargo xtask merge DIR`: the table, report and JSON of a job folder's units (what the
 /// one-process run writes), and the cost model.
 pub fn merge(dir: &Path, json_out: bool) -> Result<()> {
     let c = zmp_shard::collect(dir)?;
     match c.job.kind {
-        JobKind::Suite => emit(dir, &c, &sharded::render(&c)?, json_out),
-        JobKind::Fleet => emit(dir, &c, &crate::fleet::render(&c)?, json_out),
+        JobKind::Suite => finish_merge(
+            dir,
+            &c,
+            &sharded::render(&c)?,
+            json_out,
+            &rerun_hint(&c, dir),
+        ),
+        JobKind::Fleet => finish_merge(
+            dir,
+            &c,
+            &crate::fleet::render(&c)?,
+            json_out,
+            &rerun_hint(&c, dir),
+        ),
         JobKind::CalibrateCom => crate::calibrate::merge(dir, json_out),
     }
 }

@@ -21,6 +21,7 @@
 //! keep it: the suites (`cargo xtask suite`), `cargo xtask fleet`, and the SABIAN twin's
 //! `calibrate-com`, which links MuJoCo and must not depend on the harness.
 
+pub mod cli;
 pub mod collect;
 pub mod cost;
 pub mod job;

@@ -111,6 +111,33 @@ mod tests {
             std::fs::read_dir(d.path().join(UNITS_DIR)).unwrap().count(),
             1
         );
+        // Every f64 comes back with its bits (serde_json's float_roundtrip): a merge must equal
+        // the one-process run to the last digit.
+        let xs: Vec<f64> = (1..2000)
+            .map(|k| (k as f64 * 0.7390851332151607).sin() * 10f64.powi(k % 40 - 20))
+            .chain([
+                4.1970970339864496e-7,
+                f64::MIN_POSITIVE,
+                f64::MAX,
+                1.0 / 3.0,
+            ])
+            .collect();
+        let r = UnitResult::new(
+            "xs",
+            0.0,
+            Status::Ok {
+                outcome: serde_json::json!(xs),
+            },
+        );
+        write_unit(d.path(), &r).unwrap();
+        let back = read_unit(&unit_path(d.path(), "xs")).unwrap();
+        let Status::Ok { outcome } = back.status else {
+            panic!()
+        };
+        let ys: Vec<f64> = serde_json::from_value(outcome).unwrap();
+        for (x, y) in xs.iter().zip(&ys) {
+            assert_eq!(x.to_bits(), y.to_bits(), "{x:e} came back as {y:e}");
+        }
         let bad = d.path().join("bad.json");
         std::fs::write(&bad, "{\n \"format\": \"zmp-unit/1\",\n \"id\": 3\n}").unwrap();
         let e = read_unit(&bad).unwrap_err().to_string();
