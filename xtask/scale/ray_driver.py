@@ -126,6 +126,7 @@ def main(argv):
         ray.init(address=a.address, log_to_driver=False)
     else:
         ray.init(include_dashboard=False, log_to_driver=False)
+    started = time.time()
     # One file per task attempt, beside the job folder (which the first shard claims empty).
     attempts = a.out.parent / f"{a.out.name}.ray-attempts"
     task = ray.remote(num_cpus=a.cpus_per_task, max_retries=a.max_retries)(run_shard)
@@ -139,6 +140,7 @@ def main(argv):
             results.append(ray.get(ref))
         except Exception as e:  # a shard that Ray gave up on (retries spent)
             results.append({"returncode": None, "error": f"{type(e).__name__}: {e}"})
+    tasks_s = time.time() - started
     if not a.address:
         ray.shutdown()
     ran_s = time.time() - t0
@@ -164,7 +166,14 @@ def main(argv):
             out = json.loads(m.stdout)
         except ValueError:
             out = {"merge_stdout": m.stdout}
-        out["ray"] = {"shards": results, "attempts": tries, "seconds": ran_s}
+        # start_s: joining (or starting and stopping) the cluster; tasks_s: the shards' tasks.
+        out["ray"] = {
+            "shards": results,
+            "attempts": tries,
+            "seconds": ran_s,
+            "start_s": ran_s - tasks_s,
+            "tasks_s": tasks_s,
+        }
         print(json.dumps(out, indent=2))
     else:
         sys.stdout.write(m.stdout)
