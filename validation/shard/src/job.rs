@@ -7,7 +7,7 @@ use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use std::path::Path;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// Format tag of `job.json`.
 pub const JOB_FORMAT: &str = "zmp-job/1";
@@ -90,7 +90,7 @@ pub fn read_job(dir: &Path) -> Result<Job> {
 /// of one job start at once on a shared file system: `job.json` is written without
 /// overwriting, and a shard that loses the race compares it with its own.
 pub fn open_job(dir: &Path, job: &Job) -> Result<()> {
-    zmp_files::claim_dir(dir, JOB_MARKER, true, "job folder")?;
+    claim_job_dir(dir)?;
     let mut text = serde_json::to_string_pretty(job)?;
     text.push('\n');
     let path = dir.join(JOB_FILE);
@@ -109,6 +109,35 @@ pub fn open_job(dir: &Path, job: &Job) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// How long a shard waits for another shard's claim of the job folder to land: the claim is
+/// one small synced file renamed into place, milliseconds even on a loaded shared file system;
+/// a folder still holding only temporary files after this is a crashed claim, refused.
+const CLAIM_WAIT: Duration = Duration::from_secs(30);
+
+/// Claims the job folder ([`zmp_files::claim_dir`]). The shards of one job start at once: a
+/// shard may find the folder another shard has just made with the marker not yet renamed into
+/// place (only `.tmp-` files in it); it waits for the marker instead of refusing the folder.
+fn claim_job_dir(dir: &Path) -> Result<()> {
+    let deadline = Instant::now() + CLAIM_WAIT;
+    loop {
+        match zmp_files::claim_dir(dir, JOB_MARKER, true, "job folder") {
+            Err(_) if Instant::now() < deadline && being_claimed(dir) => {
+                std::thread::sleep(Duration::from_millis(20));
+            }
+            r => return r,
+        }
+    }
+}
+
+/// Whether `dir` holds nothing but another writer's temporary files (a claim under way).
+fn being_claimed(dir: &Path) -> bool {
+    std::fs::read_dir(dir).is_ok_and(|entries| {
+        entries
+            .flatten()
+            .all(|e| e.file_name().to_string_lossy().starts_with(".tmp-"))
+    })
 }
 
 /// Which units a run takes.
@@ -333,5 +362,28 @@ mod tests {
         let e = open_job(&mine, &job(3)).unwrap_err().to_string();
         assert!(e.contains("not written by zmp-toolkit"), "{e}");
         assert_eq!(read_job(&dir).unwrap(), job(3));
+    }
+
+    #[test]
+    fn shards_starting_at_once_all_join_a_new_folder() {
+        // The race of an array job's tasks: every shard sees a missing (or just made) folder.
+        for round in 0..20 {
+            let d = tempfile::tempdir().unwrap();
+            let dir = d.path().join("job");
+            let results: Vec<Result<()>> = std::thread::scope(|s| {
+                let hs: Vec<_> = (0..8).map(|_| s.spawn(|| open_job(&dir, &job(5)))).collect();
+                hs.into_iter().map(|h| h.join().unwrap()).collect()
+            });
+            for r in results {
+                r.unwrap_or_else(|e| panic!("round {round}: {e:#}"));
+            }
+            assert_eq!(read_job(&dir).unwrap(), job(5));
+        }
+        // A folder holding only a stale temporary file still is not the toolkit's after the wait
+        // (checked without the wait: a non-temporary file ends it at once).
+        let d = tempfile::tempdir().unwrap();
+        std::fs::write(d.path().join(".tmp-x"), "x").unwrap();
+        std::fs::write(d.path().join("y"), "y").unwrap();
+        assert!(!being_claimed(d.path()));
     }
 }
