@@ -2,7 +2,8 @@
 //! (zmp-indep-sim; clean robots and robots whose only effect is the saturation the seed's
 //! structure carries, each loop a few seconds), one malformed. The 7 loops run and end
 //! explained, the malformed campaign is one failed unit whose error names its file, line and
-//! column, and once fixed it is re-run alone and the merge is complete.
+//! column, and once fixed it is re-run alone and the merge is complete; the fleet as 3 shards
+//! merges to the same table and JSON.
 
 mod support;
 
@@ -71,4 +72,22 @@ fn a_fleet_of_eight_campaigns_gives_seven_loops_and_one_clear_error() {
     assert_eq!(m["result"]["loops"].as_array().unwrap().len(), 8);
     assert_eq!(m["units"]["failed"].as_array().unwrap().len(), 0);
     assert_eq!(m["cost"]["units"], 8);
+
+    // The same fleet as 3 shards, merged: the one-process run's table and JSON (its loops'
+    // paths aside, which name the job folder).
+    let sharded = d.path().join("night-3");
+    let s = sharded.to_str().unwrap();
+    for i in 1..=3 {
+        let shard = format!("{i}/3");
+        ok(
+            xtask(&["fleet", f, "--out", s, "--shard", &shard], d.path()),
+            "fleet --shard",
+        );
+    }
+    ok(xtask(&["merge", s], d.path()), "merge of 3 shards");
+    for file in ["table.md", "result.json"] {
+        let one = std::fs::read_to_string(out.join(file)).unwrap();
+        let three = std::fs::read_to_string(sharded.join(file)).unwrap();
+        assert_eq!(three.replace(s, o), one, "{file}");
+    }
 }
