@@ -31,7 +31,10 @@ fn xtask_bin() -> PathBuf {
         .map(PathBuf::from)
         .unwrap_or_else(|| {
             let exe = std::env::current_exe().expect("current exe");
-            exe.ancestors().nth(3).expect("target dir").join("release/xtask")
+            exe.ancestors()
+                .nth(3)
+                .expect("target dir")
+                .join("release/xtask")
         });
     assert!(
         p.exists(),
@@ -57,8 +60,15 @@ fn run(mut c: Command, what: &str) -> std::process::Output {
 
 fn suite(threads: usize, shard: Option<&str>, out: &Path) -> Command {
     let mut c = Command::new(xtask_bin());
-    c.args(["--threads", &threads.to_string(), "suite", "--range", "ci", "--out"])
-        .arg(out);
+    c.args([
+        "--threads",
+        &threads.to_string(),
+        "suite",
+        "--range",
+        "ci",
+        "--out",
+    ])
+    .arg(out);
     if let Some(s) = shard {
         c.args(["--shard", s]);
     }
@@ -72,7 +82,10 @@ fn unit_times(dir: &Path) -> Vec<(String, f64)> {
         .map(|e| {
             let text = std::fs::read_to_string(e.expect("entry").path()).expect("unit file");
             let u: serde_json::Value = serde_json::from_str(&text).expect("unit json");
-            (u["id"].as_str().unwrap_or("").to_string(), u["wall_s"].as_f64().unwrap_or(0.0))
+            (
+                u["id"].as_str().unwrap_or("").to_string(),
+                u["wall_s"].as_f64().unwrap_or(0.0),
+            )
         })
         .collect();
     v.sort_by(|a, b| a.0.cmp(&b.0));
@@ -115,10 +128,12 @@ fn ray_python() -> Option<PathBuf> {
 fn one_round(s: &mut Samples, python: Option<&Path>) {
     let d = tempfile::tempdir().expect("tempdir");
     let p = |n: &str| d.path().join(n);
-    s.one_process_2
-        .push(timed(|| drop(run(suite(2, None, &p("one2")), "one process, 2 threads"))));
-    s.one_process_1
-        .push(timed(|| drop(run(suite(1, None, &p("one1")), "one process, 1 thread"))));
+    s.one_process_2.push(timed(|| {
+        drop(run(suite(2, None, &p("one2")), "one process, 2 threads"))
+    }));
+    s.one_process_1.push(timed(|| {
+        drop(run(suite(1, None, &p("one1")), "one process, 1 thread"))
+    }));
     let times: Vec<f64> = unit_times(&p("one1")).into_iter().map(|u| u.1).collect();
     s.predicted_1.push(lpt_makespan(&times, 1));
     s.predicted_2.push(lpt_makespan(&times, 2));
@@ -144,8 +159,12 @@ fn one_round(s: &mut Samples, python: Option<&Path>) {
         run(m, "merge");
     }));
     s.two_shards_tasks.push(tasks);
-    let same = |f: &str| std::fs::read(p("one2").join(f)).ok() == std::fs::read(p("two").join(f)).ok();
-    assert!(same("table.md") && same("result.json"), "2 shards merged differently");
+    let same =
+        |f: &str| std::fs::read(p("one2").join(f)).ok() == std::fs::read(p("two").join(f)).ok();
+    assert!(
+        same("table.md") && same("result.json"),
+        "2 shards merged differently"
+    );
     if let Some(py) = python {
         let mut c = Command::new(py);
         c.arg(repo().join("xtask/scale/ray_driver.py"))
@@ -157,8 +176,10 @@ fn one_round(s: &mut Samples, python: Option<&Path>) {
         s.ray_total.push(timed(|| out = Some(run(c, "ray driver"))));
         let v: serde_json::Value =
             serde_json::from_slice(&out.expect("ran").stdout).expect("driver json");
-        s.ray_start.push(v["ray"]["start_s"].as_f64().expect("start_s"));
-        s.ray_tasks.push(v["ray"]["tasks_s"].as_f64().expect("tasks_s"));
+        s.ray_start
+            .push(v["ray"]["start_s"].as_f64().expect("start_s"));
+        s.ray_tasks
+            .push(v["ray"]["tasks_s"].as_f64().expect("tasks_s"));
         assert!(same_dir(&p("one2"), &p("ray")), "Ray merged differently");
     }
 }
@@ -176,7 +197,12 @@ fn pct(a: f64, b: f64) -> String {
 /// The 300-draw suite's prediction from a merged development job folder.
 fn dev_prediction(dir: &Path) -> String {
     let units = unit_times(dir);
-    assert_eq!(units.len(), 60, "{}: a development range has 60 units", dir.display());
+    assert_eq!(
+        units.len(),
+        60,
+        "{}: a development range has 60 units",
+        dir.display()
+    );
     let mut times = Vec::new();
     for k in 0..5 {
         times.extend(units.iter().map(|(id, s)| (format!("{id}-{k}"), *s)));
@@ -194,7 +220,11 @@ fn dev_prediction(dir: &Path) -> String {
         zmp_shard::cost::human(measured.predicted[0].wall_s),
     );
     for p in &m.predicted {
-        t.push_str(&format!("| {} | {} |\n", p.workers, zmp_shard::cost::human(p.wall_s)));
+        t.push_str(&format!(
+            "| {} | {} |\n",
+            p.workers,
+            zmp_shard::cost::human(p.wall_s)
+        ));
     }
     t.push_str(&format!(
         "\n300 draws are {} of work; from 64 workers on the wall time is the longest draw's.\n",
@@ -260,7 +290,10 @@ fn main() {
             std::env::var_os("ZMP_SCALE_DEV_DIR").is_some() && !s.ray_total.is_empty(),
             "writing bench/README.md needs every row: ZMP_SCALE_DEV_DIR and the venv's ray"
         );
-        zmp_files::sections::replace_sections(&repo().join("bench/README.md"), &[("bench:scale", t)])
-            .expect("write bench/README.md");
+        zmp_files::sections::replace_sections(
+            &repo().join("bench/README.md"),
+            &[("bench:scale", t)],
+        )
+        .expect("write bench/README.md");
     }
 }

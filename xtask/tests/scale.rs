@@ -257,3 +257,185 @@ fn ray_local_cluster_with_a_killed_worker_merges_to_the_one_process_files() {
     assert_same(&out, "Ray with a killed worker");
     assert_eq!(merged(&out), *reference);
 }
+
+/// A private single-node Slurm cluster (slurm-wlm's slurmctld and slurmd, no munge: auth/none)
+/// whose configuration, state and logs live in a temporary folder; its daemons are this test's
+/// children, stopped when it is dropped.
+struct LocalSlurm {
+    dir: tempfile::TempDir,
+    daemons: Vec<std::process::Child>,
+}
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+impl LocalSlurm {
+    /// Why a private cluster cannot be started here, if it cannot.
+    fn unavailable() -> Option<String> {
+        for prog in ["slurmctld", "slurmd", "sbatch", "squeue"] {
+            let found = Command::new(prog).arg("-V").output().is_ok();
+            if !found {
+                return Some(format!(
+                    "{prog} is not installed (apt-get install slurm-wlm)"
+                ));
+            }
+        }
+        let uid = Command::new("id").arg("-u").output().unwrap().stdout;
+        (String::from_utf8_lossy(&uid).trim() != "0")
+            .then(|| "slurmd runs jobs as their users: it needs root".into())
+    }
+
+    fn start() -> Self {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path().display().to_string();
+        let host =
+            String::from_utf8(Command::new("hostname").arg("-s").output().unwrap().stdout).unwrap();
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+        std::fs::create_dir_all(dir.path().join("state")).unwrap();
+        std::fs::create_dir_all(dir.path().join("spool")).unwrap();
+        let conf = format!(
+            "ClusterName=zmptest\nSlurmctldHost={host}\nSlurmctldPort={}\nSlurmdPort={}\n\
+             AuthType=auth/none\nCredType=cred/none\nSlurmUser=root\nSlurmdUser=root\n\
+             StateSaveLocation={d}/state\nSlurmdSpoolDir={d}/spool\n\
+             SlurmctldPidFile={d}/slurmctld.pid\nSlurmdPidFile={d}/slurmd.pid\n\
+             SlurmctldLogFile={d}/slurmctld.log\nSlurmdLogFile={d}/slurmd.log\n\
+             ProctrackType=proctrack/linuxproc\nTaskPlugin=task/none\n\
+             SelectType=select/cons_tres\nSelectTypeParameters=CR_CPU\n\
+             ReturnToService=2\nMpiDefault=none\nJobCompType=jobcomp/none\n\
+             AccountingStorageType=accounting_storage/none\n\
+             NodeName={} CPUs={cpus} State=UNKNOWN\n\
+             PartitionName=test Nodes=ALL Default=YES MaxTime=INFINITE State=UP\n",
+            free_port(),
+            free_port(),
+            host.trim(),
+            host = host.trim(),
+        );
+        std::fs::write(dir.path().join("slurm.conf"), conf).unwrap();
+        let mut s = LocalSlurm {
+            dir,
+            daemons: Vec::new(),
+        };
+        for args in [&["-D", "-i"][..], &["-D"][..]] {
+            let prog = if args.len() == 2 {
+                "slurmctld"
+            } else {
+                "slurmd"
+            };
+            let child = s
+                .command(prog)
+                .args(args)
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::null())
+                .spawn()
+                .unwrap();
+            s.daemons.push(child);
+        }
+        // The node registers within seconds; sinfo then shows it idle.
+        let started = std::time::Instant::now();
+        loop {
+            let o = s
+                .command("sinfo")
+                .args(["-h", "-o", "%t"])
+                .output()
+                .unwrap();
+            if String::from_utf8_lossy(&o.stdout).trim() == "idle" {
+                return s;
+            }
+            assert!(
+                started.elapsed().as_secs() < 60,
+                "the private Slurm cluster did not come up: {}",
+                std::fs::read_to_string(s.dir.path().join("slurmctld.log")).unwrap_or_default()
+            );
+            std::thread::sleep(std::time::Duration::from_millis(250));
+        }
+    }
+
+    fn command(&self, prog: &str) -> Command {
+        let mut c = Command::new(prog);
+        c.env("SLURM_CONF", self.dir.path().join("slurm.conf"));
+        c
+    }
+}
+
+impl Drop for LocalSlurm {
+    fn drop(&mut self) {
+        // SIGTERM first: the daemons stop their helpers (slurmscriptd) and save their state.
+        for d in &mut self.daemons {
+            let _ = Command::new("kill").arg(d.id().to_string()).status();
+            let asked = std::time::Instant::now();
+            while matches!(d.try_wait(), Ok(None)) && asked.elapsed().as_secs() < 10 {
+                std::thread::sleep(std::time::Duration::from_millis(100));
+            }
+            let _ = d.kill();
+            let _ = d.wait();
+        }
+    }
+}
+
+#[test]
+#[ignore = "long: needs slurm-wlm and root; starts a private single-node Slurm cluster"]
+fn a_real_single_node_slurm_runs_the_array_and_the_dependent_merge() {
+    if let Some(why) = LocalSlurm::unavailable() {
+        eprintln!("SKIPPED: {why}");
+        return;
+    }
+    let reference = one_process();
+    let slurm = LocalSlurm::start();
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("job");
+    let o = out.to_str().unwrap();
+    let script = repo().join("xtask/scale/slurm/suite.sbatch");
+    // sbatch checks the script's directives and the array against the cluster, runs nothing.
+    let t = slurm
+        .command("sbatch")
+        .args(["--test-only", "--array=1-4"])
+        .arg(&script)
+        .args(["suite", "--range", "ci", "--out", o])
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&t.stderr);
+    assert!(t.status.success() && said.contains("to start at"), "{said}");
+    assert!(!out.exists(), "--test-only ran something");
+    // submit.sh: the array of 4 shards (one CPU each, two at a time on this machine) and the
+    // merge job after it.
+    let log = format!("--output={}/slurm-%j.out", d.path().display());
+    let s = slurm
+        .command("bash")
+        .arg(repo().join("xtask/scale/slurm/submit.sh"))
+        .args(["4", "suite", "--range", "ci", "--out", o, "--"])
+        .args(["--cpus-per-task=1", &log])
+        .env("ZMP_XTASK", env!("CARGO_BIN_EXE_xtask"))
+        .env("ZMP_ROOT", repo())
+        .current_dir(d.path())
+        .output()
+        .unwrap();
+    let submitted = ok(s, "submit.sh");
+    assert!(submitted.contains("(4 shards), merge job"), "{submitted}");
+    let started = std::time::Instant::now();
+    loop {
+        let q = slurm.command("squeue").args(["-h"]).output().unwrap();
+        if q.stdout.is_empty() {
+            break;
+        }
+        assert!(started.elapsed().as_secs() < 900, "the jobs did not end");
+        std::thread::sleep(std::time::Duration::from_secs(1));
+    }
+    let logs: String = std::fs::read_dir(d.path())
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with("slurm-"))
+        .map(|e| std::fs::read_to_string(e.path()).unwrap())
+        .collect();
+    assert!(
+        logs.contains("predicted wall time"),
+        "the merge job:\n{logs}"
+    );
+    assert_eq!(unit_files(&out), CI_UNITS);
+    assert_same(&out, "a real Slurm array and merge job");
+    assert_eq!(merged(&out), *reference);
+}

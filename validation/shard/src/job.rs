@@ -371,7 +371,9 @@ mod tests {
             let d = tempfile::tempdir().unwrap();
             let dir = d.path().join("job");
             let results: Vec<Result<()>> = std::thread::scope(|s| {
-                let hs: Vec<_> = (0..8).map(|_| s.spawn(|| open_job(&dir, &job(5)))).collect();
+                let hs: Vec<_> = (0..8)
+                    .map(|_| s.spawn(|| open_job(&dir, &job(5))))
+                    .collect();
                 hs.into_iter().map(|h| h.join().unwrap()).collect()
             });
             for r in results {
