@@ -115,7 +115,7 @@ fn run_unit(campaign: &Path, out: &Path, time_limit: u64) -> Result<Value> {
     let summary = run_loop(
         &camp,
         &LoopArgs {
-            campaign: campaign,
+            campaign,
             model: None,
             out,
             force: true,
