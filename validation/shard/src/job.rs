@@ -118,7 +118,8 @@ const CLAIM_WAIT: Duration = Duration::from_secs(30);
 
 /// Claims the job folder ([`zmp_files::claim_dir`]). The shards of one job start at once: a
 /// shard may find the folder another shard has just made with the marker not yet renamed into
-/// place (only `.tmp-` files in it); it waits for the marker instead of refusing the folder.
+/// place (only `.tmp-` files in it, or the marker landing while `claim_dir` looked); it waits
+/// for the marker instead of refusing the folder.
 fn claim_job_dir(dir: &Path) -> Result<()> {
     let deadline = Instant::now() + CLAIM_WAIT;
     loop {
@@ -131,12 +132,16 @@ fn claim_job_dir(dir: &Path) -> Result<()> {
     }
 }
 
-/// Whether `dir` holds nothing but another writer's temporary files (a claim under way).
+/// Whether `dir` holds nothing but another writer's temporary files and perhaps the marker it
+/// has just renamed into place (a claim under way, or one that landed after `claim_dir` looked
+/// for the marker and before it listed the folder).
 fn being_claimed(dir: &Path) -> bool {
     std::fs::read_dir(dir).is_ok_and(|entries| {
-        entries
-            .flatten()
-            .all(|e| e.file_name().to_string_lossy().starts_with(".tmp-"))
+        entries.flatten().all(|e| {
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            name.starts_with(".tmp-") || name == JOB_MARKER
+        })
     })
 }
 
@@ -367,7 +372,7 @@ mod tests {
     #[test]
     fn shards_starting_at_once_all_join_a_new_folder() {
         // The race of an array job's tasks: every shard sees a missing (or just made) folder.
-        for round in 0..20 {
+        for round in 0..100 {
             let d = tempfile::tempdir().unwrap();
             let dir = d.path().join("job");
             let results: Vec<Result<()>> = std::thread::scope(|s| {
