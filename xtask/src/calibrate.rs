@@ -16,6 +16,9 @@ pub struct CalibrateArgs {
     pub markdown: bool,
     pub json: bool,
     pub force: bool,
+    /// `--shard i/n` / `--unit ID`: part of the units into the job folder `out`.
+    pub shard: Option<zmp_shard::Shard>,
+    pub unit: Option<String>,
 }
 
 fn abs(p: &Path) -> PathBuf {
@@ -40,6 +43,12 @@ pub fn calibrate_com(a: &CalibrateArgs) -> Result<()> {
     if let Some(d) = a.draws {
         args.extend(["--draws".into(), d.to_string()]);
     }
+    if let Some(s) = a.shard {
+        args.extend(["--shard".into(), s.to_string()]);
+    }
+    if let Some(u) = &a.unit {
+        args.extend(["--unit".into(), u.clone()]);
+    }
     if let Some(f) = &a.figures {
         args.extend(["--figures".into(), abs(f).display().to_string()]);
     }
@@ -51,6 +60,20 @@ pub fn calibrate_com(a: &CalibrateArgs) -> Result<()> {
         if on {
             args.push(flag.into());
         }
+    }
+    run_twin(&args, &prereqs())
+}
+
+/// `cargo xtask merge DIR` of a `calibrate-com --shard` job (runs `zmp-twin sabian merge`).
+pub fn merge(dir: &Path, json: bool) -> Result<()> {
+    crate::setup::setup(true)?;
+    let mut args: Vec<String> = vec![
+        "sabian".into(),
+        "merge".into(),
+        abs(dir).display().to_string(),
+    ];
+    if json {
+        args.push("--json".into());
     }
     run_twin(&args, &prereqs())
 }

@@ -9,11 +9,13 @@ mod design_next;
 mod diagnose;
 mod env;
 mod files_doc;
+mod fleet;
 mod fmu;
 mod identify;
 mod links;
 mod loop_cmd;
 mod robust;
+mod scale;
 mod setup;
 mod simulate;
 mod twin;
@@ -147,7 +149,27 @@ enum Cmd {
         /// Overwrite the files an earlier run wrote in OUT.
         #[arg(long)]
         force: bool,
+        /// Run only part i of n of the units (blocks of noise draws, one walk pair per model
+        /// and run) into the job folder OUT; `cargo xtask merge OUT` then writes what the
+        /// one-process run writes, and tables.md (docs/src/scale-out.md).
+        #[arg(long, value_name = "i/n", conflicts_with_all = ["unit", "figures", "markdown"])]
+        shard: Option<zmp_shard::Shard>,
+        /// Run one unit alone into the job folder OUT (one merge named as failed or missing).
+        #[arg(long, value_name = "ID", conflicts_with_all = ["figures", "markdown"])]
+        unit: Option<String>,
     },
+    /// The out-of-sample suite (robots of zmp-indep-sim through the user's loop), one unit per
+    /// draw, in one process or as shards on many machines (docs/src/scale-out.md); a whole run
+    /// merges at the end: table.md, report.md and result.json in OUT.
+    Suite(scale::SuiteArgs),
+    /// Combine a job folder's unit files (suite, fleet, calibrate-com --shard) into the
+    /// table, report and JSON the one-process run writes (replacing the merge's own earlier
+    /// files there); name failed and missing units (then exit non-zero); print the critical
+    /// path and the predicted wall time on 1, 2, 8, 64 and 256 workers.
+    Merge(scale::MergeArgs),
+    /// The user's loop on every campaign folder under DIR (one robot each), one unit per
+    /// campaign, in one process or sharded; a campaign that cannot be read fails alone.
+    Fleet(fleet::FleetArgs),
     /// Build the FMI 2.0 and FMI 3.0 co-simulation FMUs of a model file: zmp_plant.fmu,
     /// zmp_controller.fmu and their _fmi3 versions (Linux 64-bit). Parameter start values are
     /// the model file's; the GUID changes with the model's content.
@@ -473,6 +495,9 @@ fn dispatch(command: Cmd) -> Result<()> {
             json,
         }),
         Cmd::Demo { out, force, json } => demo::demo(&out, force, json),
+        Cmd::Suite(a) => scale::suite(a),
+        Cmd::Merge(a) => scale::merge(&a.dir, a.json),
+        Cmd::Fleet(a) => fleet::fleet(a),
         Cmd::CalibrateCom {
             out,
             quick,
@@ -482,6 +507,8 @@ fn dispatch(command: Cmd) -> Result<()> {
             markdown,
             json,
             force,
+            shard,
+            unit,
         } => calibrate::calibrate_com(&calibrate::CalibrateArgs {
             out,
             quick,
@@ -491,6 +518,8 @@ fn dispatch(command: Cmd) -> Result<()> {
             markdown,
             json,
             force,
+            shard,
+            unit,
         }),
         Cmd::Identify {
             campaign,

@@ -232,7 +232,9 @@ pub fn claim_dir(dir: &Path, kind: Kind, force: bool) -> Result<PathBuf, FileErr
         )
     })?;
     match judge_dir(&target, kind, force)? {
-        FoundDir::Missing => match write_dir(&target, kind, force, |_| Ok::<_, FileError>(())) {
+        // Created, never swapped: a folder another run made meanwhile (and may be writing
+        // into) is judged as it is now, not replaced, also with `force`.
+        FoundDir::Missing => match write_dir(&target, kind, false, |_| Ok::<_, FileError>(())) {
             Ok(_) => {}
             // Created by another run meanwhile: judged as it is now.
             Err(FileError::Exists { .. }) => return claim_dir(&target, kind, force),

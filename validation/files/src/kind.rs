@@ -17,6 +17,8 @@ pub const LOOP_MARKER: &str = ".zmp-loop-output";
 pub const DEMO_MARKER: &str = ".zmp-demo-output";
 /// The marker file of a `validate silo2` output folder.
 pub const TWIN_SILO2_MARKER: &str = ".zmp-twin-silo2";
+/// The marker file of a sharded job's folder (`suite`, `fleet`, `calibrate-com --shard`).
+pub const JOB_MARKER: &str = ".zmp-job";
 /// The file name of the model ledger.
 pub const LEDGER_FILE: &str = "zmp-ledger.jsonl";
 
@@ -65,6 +67,8 @@ pub enum Kind {
     DemoOutput,
     /// The output folder of `validate silo2`.
     TwinSilo2,
+    /// The folder of a sharded job: its description, one result file per unit, the merge.
+    Job,
 }
 
 /// What a recogniser decided about an existing folder.
@@ -75,7 +79,7 @@ pub(crate) enum DirMatch {
 
 impl Kind {
     /// Every kind, in the order of the documentation's table.
-    pub const ALL: [Kind; 21] = [
+    pub const ALL: [Kind; 22] = [
         Kind::Model,
         Kind::Ledger,
         Kind::Manifest,
@@ -97,6 +101,7 @@ impl Kind {
         Kind::LoopOutput,
         Kind::DemoOutput,
         Kind::TwinSilo2,
+        Kind::Job,
     ];
 
     /// A short name for messages ("a model file", "a report folder").
@@ -123,6 +128,7 @@ impl Kind {
             Kind::LoopOutput => "a loop output folder",
             Kind::DemoOutput => "a demo output folder",
             Kind::TwinSilo2 => "a `validate silo2` output folder",
+            Kind::Job => "a sharded job's folder",
         }
     }
 
@@ -158,6 +164,7 @@ impl Kind {
             Kind::LoopOutput => "a folder holding the marker `.zmp-loop-output`",
             Kind::DemoOutput => "a folder holding the marker `.zmp-demo-output`",
             Kind::TwinSilo2 => "a folder holding the marker `.zmp-twin-silo2`",
+            Kind::Job => "a folder holding the marker `.zmp-job`",
         }
     }
 
@@ -171,6 +178,7 @@ impl Kind {
                 | Kind::LoopOutput
                 | Kind::DemoOutput
                 | Kind::TwinSilo2
+                | Kind::Job
         )
     }
 
@@ -181,6 +189,7 @@ impl Kind {
             Kind::LoopOutput => Some(LOOP_MARKER),
             Kind::DemoOutput => Some(DEMO_MARKER),
             Kind::TwinSilo2 => Some(TWIN_SILO2_MARKER),
+            Kind::Job => Some(JOB_MARKER),
             _ => None,
         }
     }
@@ -248,7 +257,8 @@ impl Kind {
             | Kind::Report
             | Kind::LoopOutput
             | Kind::DemoOutput
-            | Kind::TwinSilo2 => false,
+            | Kind::TwinSilo2
+            | Kind::Job => false,
         }
     }
 

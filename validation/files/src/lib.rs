@@ -45,8 +45,8 @@ pub use dir::{check_dir, claim_dir, remove, write_dir, Staging};
 pub use error::FileError;
 pub use file::{check_file, resolve, write_file, Written};
 pub use kind::{
-    describe_file, Kind, DEMO_MARKER, HEAD_BYTES, LEDGER_FILE, LOOP_MARKER, REPORT_MARKER,
-    TWIN_SILO2_MARKER,
+    describe_file, Kind, DEMO_MARKER, HEAD_BYTES, JOB_MARKER, LEDGER_FILE, LOOP_MARKER,
+    REPORT_MARKER, TWIN_SILO2_MARKER,
 };
 pub use read::{limits, read_limited, read_limited_into, read_limited_text};
 pub use temp::sweep;

@@ -31,7 +31,7 @@ use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions
 pub const IN_STRUCTURE: [&str; 2] = ["acceleration_saturation", "cross_coupling"];
 
 /// The kind of a draw, for the tables.
-#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
 pub enum Class {
     Clean,
     Single(String),
@@ -41,15 +41,15 @@ pub enum Class {
 }
 
 /// One draw of the suite.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Case {
     pub seed: u64,
     pub scenario: String,
     pub class: Class,
 }
 
-/// What the loop made of a draw.
-#[derive(Debug, Clone)]
+/// What the loop made of a draw (a unit's outcome in `cargo xtask suite`: [`crate::sharded`]).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Outcome {
     pub case: Case,
     /// Hidden effects, catalogue names (outside effects by their own names).
@@ -59,7 +59,9 @@ pub struct Outcome {
     /// Effects the loop added, in order.
     pub found: Vec<String>,
     pub explained: bool,
+    #[serde(deserialize_with = "crate::sharded::nan_if_null")]
     pub identified_ratio: f64,
+    #[serde(deserialize_with = "crate::sharded::nan_if_null")]
     pub final_ratio: f64,
     /// Short description of the truth.
     pub truth: String,

@@ -331,7 +331,7 @@ pub fn cad_with_and_without_feet(h0: &HeldPosture, soles: &[SoleCad; 2]) -> (Cad
 }
 
 /// One calibration's result for one design.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ComResult {
     /// Estimated whole-robot CoM at the upright posture (m, world).
     pub com: [f64; 3],

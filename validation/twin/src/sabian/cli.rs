@@ -43,6 +43,23 @@ pub enum SabianCommand {
         /// Overwrite the files this command wrote before.
         #[arg(long)]
         force: bool,
+        /// Run only part i of n of the units (blocks of noise draws, one walk pair per model
+        /// and run) into the job folder OUT; `merge OUT` then writes what the one-process run
+        /// writes (docs/src/scale-out.md).
+        #[arg(long, value_name = "i/n", conflicts_with_all = ["unit", "figures", "markdown"])]
+        shard: Option<zmp_shard::Shard>,
+        /// Run one unit alone into the job folder OUT (one a merge named as failed or missing).
+        #[arg(long, value_name = "ID", conflicts_with_all = ["figures", "markdown"])]
+        unit: Option<String>,
+    },
+    /// Merge a `calibrate-com --shard` job folder: com-calibration.toml, report.html, the
+    /// figures and tables.md (the --markdown tables), as the one-process run writes them.
+    Merge {
+        /// Job folder.
+        dir: PathBuf,
+        /// Print the merged outcome, the units' state and the cost model as JSON.
+        #[arg(long)]
+        json: bool,
     },
 }
 
@@ -58,6 +75,8 @@ pub fn run(cmd: SabianCommand) -> Result<()> {
             markdown: md,
             json,
             force,
+            shard,
+            unit,
         } => {
             let mut opt = if quick {
                 Options::quick()
@@ -75,6 +94,9 @@ pub fn run(cmd: SabianCommand) -> Result<()> {
                     bail!("--draws must be at least 1");
                 }
                 opt.draws = d;
+            }
+            if shard.is_some() || unit.is_some() {
+                return run_part(&out, &opt, quick, shard, unit, json);
             }
             check_out(&out, force)?;
             let started = std::time::Instant::now();
@@ -119,5 +141,29 @@ pub fn run(cmd: SabianCommand) -> Result<()> {
             }
             Ok(())
         }
+        SabianCommand::Merge { dir, json } => super::shard::merge(&dir, json),
     }
+}
+
+/// `calibrate-com --shard i/n` or `--unit ID`: the units into the job folder `out`.
+fn run_part(
+    out: &std::path::Path,
+    opt: &Options,
+    quick: bool,
+    shard: Option<zmp_shard::Shard>,
+    unit: Option<String>,
+    json: bool,
+) -> Result<()> {
+    let job = super::shard::job(opt, quick)?;
+    let ropts = zmp_shard::RunOptions {
+        shard: shard.unwrap_or(zmp_shard::Shard::WHOLE),
+        only: unit,
+        keep_done: false,
+        threads: opt.threads,
+        quiet: false,
+    };
+    let r = zmp_shard::cli::run_part(out, &job, &ropts, json, |u| {
+        super::shard::run_unit(opt, &u.id)
+    })?;
+    zmp_shard::cli::finish_part(out, &r, json)
 }

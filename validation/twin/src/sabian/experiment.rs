@@ -9,7 +9,7 @@ use super::robot::{PointMass, Sabian, Variant};
 use super::tpc::TorsoMap;
 use super::walk::{execute, plan, Perturbation, Plan, Run, VirtualModel};
 use crate::mj::TwinError;
-use zmp_models::com::{Mat3, Vec3};
+use zmp_models::com::{Mat3, SoleCad, Vec3};
 use zmp_models::walking::{Effort, Gait, TorsoParams};
 
 /// What to run.
@@ -149,99 +149,167 @@ pub struct CalibrationOutcome {
     pub trunk: (Vec3, Mat3),
 }
 
-/// Runs both calibrations.
-pub fn calibrate(opt: &Options) -> Result<CalibrationOutcome, TwinError> {
+/// What every noise draw of the calibration uses: the designed postures and the seed's two,
+/// held on the twin with the true masses (deterministic: the same on every machine).
+pub struct CalibrationSetup {
+    pub noise: SensorNoise,
+    pub soles: [SoleCad; 2],
+    pub specs: Vec<PostureSpec>,
+    pub condition_number: f64,
+    pub held: Vec<HeldPosture>,
+    pub seed_held: Vec<HeldPosture>,
+    pub motors: MotorModel,
+}
+
+/// Designs the postures and holds them (and the seed's) on the twin.
+pub fn calibration_setup(opt: &Options) -> Result<CalibrationSetup, TwinError> {
     let noise = SensorNoise::stated();
     let mut cad = Sabian::load(&Variant::default(), "CAD")?;
     let home_x = home_pelvis_x(&mut cad)?;
-    let sol = soles(&cad);
     let real = Variant {
         trunk_masses: vec![TRUE_ERROR_MASS],
         ..Default::default()
     };
-    let (specs, cond) = design(opt.designed_postures, &noise, home_x)?;
-    let held = hold_postures(&specs, &real, home_x)?;
-    let seed_held = hold_postures(&seed_design(), &real, home_x)?;
-    let err = |e: zmp_models::com::ComError| TwinError::Model {
+    let (specs, condition_number) = design(opt.designed_postures, &noise, home_x)?;
+    Ok(CalibrationSetup {
+        noise,
+        soles: soles(&cad),
+        held: hold_postures(&specs, &real, home_x)?,
+        seed_held: hold_postures(&seed_design(), &real, home_x)?,
+        specs,
+        condition_number,
+        motors: MotorModel::twin(),
+    })
+}
+
+/// One noise draw of every calibration: ours (the designed postures) and the seed's four.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DrawSet {
+    pub ours: ComResult,
+    pub seed: ComResult,
+    pub zeroed: ComResult,
+    pub eq7_plus: ComResult,
+    pub eq7_minus: ComResult,
+    /// Our estimate's error mass (kg) and its position in the trunk frame (m).
+    pub error_mass_kg: f64,
+    pub error_mass_position: [f64; 3],
+}
+
+fn model_error(e: zmp_models::com::ComError) -> TwinError {
+    TwinError::Model {
         path: "calibration".into(),
         message: e.to_string(),
-    };
+    }
+}
+
+/// Noise draws `0..upto`. One random stream runs through the draws (draw k's numbers follow
+/// draw k-1's), so a block of draws of a sharded run replays the stream from draw 0: a draw
+/// costs well under a millisecond beside the setup's seconds.
+pub fn calibration_draws(
+    setup: &CalibrationSetup,
+    opt: &Options,
+    upto: usize,
+) -> Result<Vec<DrawSet>, TwinError> {
+    let (noise, sol) = (&setup.noise, setup.soles);
     let mut r = rng(opt.seed);
     // The eq. 7 variant's current noise: its own generator, so the other draws stay as they are.
     let mut current_rng = rng(opt.seed ^ 0xe97);
-    let motors = MotorModel::twin();
-    let mut ours = Vec::new();
-    let mut seed = Vec::new();
-    let mut zeroed = Vec::new();
-    let (mut eq7_plus, mut eq7_minus) = (Vec::new(), Vec::new());
-    let mut first = None;
-    for _ in 0..opt.draws {
-        let offsets = draw_offsets(&noise, &mut r);
-        let tilts = draw_tilts(held.len(), &noise, &mut r);
-        let (res, est) = regressor_calibration(&held, &offsets, &tilts, 1.0, &noise, sol, &mut r)
-            .map_err(err)?;
-        if first.is_none() {
-            first = Some((res, est));
-        }
-        ours.push(res);
+    let mut out = Vec::with_capacity(upto);
+    for _ in 0..upto {
+        let offsets = draw_offsets(noise, &mut r);
+        let tilts = draw_tilts(setup.held.len(), noise, &mut r);
+        let (ours, est) =
+            regressor_calibration(&setup.held, &offsets, &tilts, 1.0, noise, sol, &mut r)
+                .map_err(model_error)?;
         let sc = seed_calibration(
-            &[seed_held[0], seed_held[1]],
+            &[setup.seed_held[0], setup.seed_held[1]],
             sol,
             &offsets,
-            &noise,
+            noise,
             &mut r,
-            &motors,
+            &setup.motors,
             &mut current_rng,
         )
-        .map_err(err)?;
-        seed.push(sc.with_offsets);
-        zeroed.push(sc.zeroed);
-        eq7_plus.push(sc.eq7_plus);
-        eq7_minus.push(sc.eq7_minus);
+        .map_err(model_error)?;
+        let m_e = est.error_mass_kg();
+        out.push(DrawSet {
+            ours,
+            seed: sc.with_offsets,
+            zeroed: sc.zeroed,
+            eq7_plus: sc.eq7_plus,
+            eq7_minus: sc.eq7_minus,
+            error_mass_kg: m_e,
+            error_mass_position: (est.error_first_moment() / m_e).into(),
+        });
     }
-    let (res0, est0) = first.ok_or_else(|| TwinError::Model {
+    Ok(out)
+}
+
+/// The calibration outcome of the draws (draw 0's estimate is the one the virtual models use).
+pub fn assemble_calibration(
+    setup: &CalibrationSetup,
+    draws: &[DrawSet],
+) -> Result<CalibrationOutcome, TwinError> {
+    let first = draws.first().ok_or_else(|| TwinError::Model {
         path: "calibration".into(),
         message: "no noise draws requested".into(),
     })?;
+    let (held, sol) = (&setup.held, setup.soles);
     let k0 = &held[0].kinematics;
     let labels = |s: &[PostureSpec]| s.iter().map(|p| p.label()).collect::<Vec<_>>();
-    let m_e = est0.error_mass_kg();
+    let pick = |f: fn(&DrawSet) -> ComResult| draws.iter().map(f).collect::<Vec<_>>();
+    let seed_labels = labels(&seed_design());
     Ok(CalibrationOutcome {
-        noise,
+        noise: setup.noise,
         true_mass_kg: held[0].true_body.0 + sol[0].mass_kg + sol[1].mass_kg,
         true_com: held[0].true_com.into(),
         cad_com: k0.cad_com.into(),
         true_error_mass_kg: TRUE_ERROR_MASS.mass_kg,
         true_error_mass_position: TRUE_ERROR_MASS.position.into(),
-        seed: summarise("seed: upright + 1 deg", labels(&seed_design()), seed),
-        seed_zeroed: summarise("seed, sensors zeroed", labels(&seed_design()), zeroed),
-        motors,
+        seed: summarise(
+            "seed: upright + 1 deg",
+            seed_labels.clone(),
+            pick(|d| d.seed),
+        ),
+        seed_zeroed: summarise(
+            "seed, sensors zeroed",
+            seed_labels.clone(),
+            pick(|d| d.zeroed),
+        ),
+        motors: setup.motors,
         seed_m2_nm: [0, 1].map(|k| {
             let exact = MotorModel {
                 current_std_a: 0.0,
-                ..motors
+                ..setup.motors
             };
             exact
-                .m2(&seed_held[k], &mut rng(0))
+                .m2(&setup.seed_held[k], &mut rng(0))
                 .map_or([f64::NAN; 3], |m| m.into())
         }),
         seed_eq7_plus: summarise(
             "seed, sensors zeroed, eq. 7: M_2 = +sum K I",
-            labels(&seed_design()),
-            eq7_plus,
+            seed_labels.clone(),
+            pick(|d| d.eq7_plus),
         ),
         seed_eq7_minus: summarise(
             "seed, sensors zeroed, eq. 7: M_2 = -sum K I",
-            labels(&seed_design()),
-            eq7_minus,
+            seed_labels,
+            pick(|d| d.eq7_minus),
         ),
-        designed: summarise("ours: D-optimal", labels(&specs), ours),
-        designed_condition_number: cond,
-        estimated_error_mass_kg: m_e,
-        estimated_error_mass_position: (est0.error_first_moment() / m_e).into(),
-        estimated_com: res0.com,
+        designed: summarise("ours: D-optimal", labels(&setup.specs), pick(|d| d.ours)),
+        designed_condition_number: setup.condition_number,
+        estimated_error_mass_kg: first.error_mass_kg,
+        estimated_error_mass_position: first.error_mass_position,
+        estimated_com: first.ours.com,
         trunk: k0.trunk,
     })
+}
+
+/// Runs both calibrations.
+pub fn calibrate(opt: &Options) -> Result<CalibrationOutcome, TwinError> {
+    let setup = calibration_setup(opt)?;
+    let draws = calibration_draws(&setup, opt, opt.draws)?;
+    assemble_calibration(&setup, &draws)
 }
 
 /// The seed's four virtual models (and ours, e) from a calibration. The trunk frame is the one
@@ -386,15 +454,102 @@ pub struct ModelOutcome {
     pub plan: Option<Plan>,
 }
 
+/// The robot the models walk on: the twin with the true masses.
+pub fn true_robot() -> Variant {
+    Variant {
+        trunk_masses: vec![TRUE_ERROR_MASS],
+        ..Default::default()
+    }
+}
+
+/// What a model's plan says beside its walks.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PlanFacts {
+    pub com_height_m: f64,
+    /// The model's CoM minus the real robot's at the plan's start (m).
+    pub com_error_m: [f64; 3],
+    /// The real robot's CoM shift per unit torso shift there (x, y).
+    pub real_com_per_shift: [f64; 2],
+}
+
 /// The model's CoM error and the real robot's CoM shift per torso shift at the plan's start.
-fn model_against_real(plan: &Plan, real: &Variant) -> Result<([f64; 3], [f64; 2]), TwinError> {
-    let mut r = Sabian::load(real, "real")?;
+pub fn plan_facts(plan: &Plan) -> Result<PlanFacts, TwinError> {
+    let mut r = Sabian::load(&true_robot(), "real")?;
     let map = TorsoMap::of(&mut r, &plan.qpos[..1])?;
     r.data.qpos_mut().copy_from_slice(&plan.qpos[0]);
     r.kinematics();
     let real_com = r.com();
-    let model_com = plan.com_at_start;
-    Ok(((model_com - real_com).into(), map.com_per_shift))
+    Ok(PlanFacts {
+        com_height_m: plan.com_height_m,
+        com_error_m: (plan.com_at_start - real_com).into(),
+        real_com_per_shift: map.com_per_shift,
+    })
+}
+
+/// One walk: (model, run, with Torso Position Control).
+pub type WalkJob = (usize, usize, bool);
+
+/// Every walk of `models` models and `runs` runs, open loop and with the control.
+pub fn walk_jobs(models: usize, runs: usize) -> Vec<WalkJob> {
+    (0..models)
+        .flat_map(|m| {
+            (0..runs).flat_map(move |r| [false, true].into_iter().map(move |t| (m, r, t)))
+        })
+        .collect()
+}
+
+/// Run `run` of a plan on the twin with the true masses (run r of each model meets the same
+/// robot: the same perturbation).
+pub fn walk_one(
+    plan: &Plan,
+    gait: &Gait,
+    opt: &Options,
+    run: usize,
+    tpc: bool,
+) -> Result<Run, TwinError> {
+    execute(
+        plan,
+        &true_robot(),
+        gait,
+        &Perturbation::draw(opt.seed + run as u64),
+        tpc,
+    )
+}
+
+/// The models' outcomes from their plans' facts and the walks of `jobs` (`runs[k]` is job k's).
+pub fn assemble_walks(
+    models: &[VirtualModel],
+    facts: &[PlanFacts],
+    plans: Option<&[Plan]>,
+    jobs: &[WalkJob],
+    runs: &[Run],
+    gait: &Gait,
+) -> Vec<ModelOutcome> {
+    let mut out = Vec::new();
+    for (m, model) in models.iter().enumerate() {
+        let pick = |tpc: bool| -> Vec<Run> {
+            jobs.iter()
+                .zip(runs)
+                .filter(|((mm, _, t), _)| *mm == m && *t == tpc)
+                .map(|(_, r)| r.clone())
+                .collect()
+        };
+        let with_tpc = pick(true);
+        out.push(ModelOutcome {
+            tpc: with_tpc.first().and_then(|r| r.tpc),
+            name: model.name.clone(),
+            description: model.description.clone(),
+            error_mass_position: model.error_mass.map(|p| p.position.into()),
+            error_mass_kg: model.error_mass.map_or(0.0, |p| p.mass_kg),
+            com_height_m: facts[m].com_height_m,
+            com_error_m: facts[m].com_error_m,
+            real_com_per_shift: facts[m].real_com_per_shift,
+            open_loop: walks(pick(false), gait),
+            with_tpc: walks(with_tpc, gait),
+            plan: plans.map(|p| p[m].clone()),
+        });
+    }
+    out
 }
 
 /// Plans with each model and walks `runs` times on the twin with the true masses, open loop and
@@ -404,52 +559,23 @@ pub fn walk_models(
     opt: &Options,
     gait: &Gait,
 ) -> Result<Vec<ModelOutcome>, TwinError> {
-    let real = Variant {
-        trunk_masses: vec![TRUE_ERROR_MASS],
-        ..Default::default()
-    };
     let plans =
         zmp_campaign::par::try_parallel_map(models.len(), opt.threads, |k| plan(&models[k], gait))?;
-    let jobs: Vec<(usize, usize, bool)> = (0..models.len())
-        .flat_map(|m| {
-            (0..opt.runs).flat_map(move |r| [false, true].into_iter().map(move |t| (m, r, t)))
-        })
-        .collect();
+    let jobs = walk_jobs(models.len(), opt.runs);
     let runs = zmp_campaign::par::try_parallel_map(jobs.len(), opt.threads, |j| {
         let (m, r, tpc) = jobs[j];
-        // Run r of each model meets the same robot.
-        execute(
-            &plans[m],
-            &real,
-            gait,
-            &Perturbation::draw(opt.seed + r as u64),
-            tpc,
-        )
+        walk_one(&plans[m], gait, opt, r, tpc)
     })?;
-    let mut out = Vec::new();
-    for (m, model) in models.iter().enumerate() {
-        let pick = |tpc: bool| -> Vec<Run> {
-            jobs.iter()
-                .zip(&runs)
-                .filter(|((mm, _, t), _)| *mm == m && *t == tpc)
-                .map(|(_, r)| r.clone())
-                .collect()
-        };
-        let (com_error_m, real_com_per_shift) = model_against_real(&plans[m], &real)?;
-        let with_tpc = pick(true);
-        out.push(ModelOutcome {
-            tpc: with_tpc.first().and_then(|r| r.tpc),
-            name: model.name.clone(),
-            description: model.description.clone(),
-            error_mass_position: model.error_mass.map(|p| p.position.into()),
-            error_mass_kg: model.error_mass.map_or(0.0, |p| p.mass_kg),
-            com_height_m: plans[m].com_height_m,
-            com_error_m,
-            real_com_per_shift,
-            open_loop: walks(pick(false), gait),
-            with_tpc: walks(with_tpc, gait),
-            plan: Some(plans[m].clone()),
-        });
-    }
-    Ok(out)
+    let facts = plans
+        .iter()
+        .map(plan_facts)
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(assemble_walks(
+        models,
+        &facts,
+        Some(&plans),
+        &jobs,
+        &runs,
+        gait,
+    ))
 }

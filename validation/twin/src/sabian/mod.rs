@@ -12,6 +12,7 @@ pub mod ik;
 pub mod postures;
 pub mod report;
 pub mod robot;
+pub mod shard;
 pub mod tables;
 pub mod tpc;
 pub mod walk;

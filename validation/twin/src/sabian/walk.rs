@@ -211,7 +211,7 @@ impl Perturbation {
 
 /// What one run recorded, per phase (the seed's 0.03 s samples; measured values are the
 /// phase's means).
-#[derive(Debug, Clone, serde::Serialize)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Run {
     /// The virtual model walked.
     pub model: String,

@@ -1,0 +1,350 @@
+//! The out-of-sample suite as a sharded job (`cargo xtask suite`, issue 57): one unit per draw,
+//! run by [`crate::indep::run_case`] and scored by [`crate::indep::scores`] and
+//! [`crate::indep::markdown`], whatever those compute; this layer only names the draws, says
+//! what each is expected to cost, and turns the units' outcomes back into the table, the report
+//! and the JSON.
+
+use crate::indep::{markdown, run_case, scores, suite, Case, Class, Outcome, DRAW_TIME_LIMIT};
+use anyhow::{bail, Context, Result};
+use serde_json::{json, Value};
+use std::fmt;
+use std::str::FromStr;
+use zmp_shard::{Collected, Job, JobKind, Merged, UnitSpec};
+
+/// Which draws a suite job runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Range {
+    /// The development seeds (where the diagnosis is tuned), 60 draws from seed 1.
+    Development,
+    /// A held-out range: 60 draws from a first seed never run before; run once.
+    HeldOut,
+    /// The CI subset: a few quick draws of the development range.
+    Ci,
+}
+
+impl FromStr for Range {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> Result<Range> {
+        match s {
+            "development" => Ok(Range::Development),
+            "held-out" => Ok(Range::HeldOut),
+            "ci" => Ok(Range::Ci),
+            _ => bail!("--range {s:?}: expected development, held-out or ci"),
+        }
+    }
+}
+
+impl fmt::Display for Range {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Range::Development => "development",
+            Range::HeldOut => "held-out",
+            Range::Ci => "ci",
+        })
+    }
+}
+
+/// The development range's first seed.
+pub const DEVELOPMENT_FIRST_SEED: u64 = 1;
+
+/// Draws of one range from `first_seed`: every single effect 3 times, 12 pairs, 3 triples,
+/// 10 clean robots, every outside effect twice (60 draws; the ranges of
+/// `tests/blind_independent.rs`).
+pub fn standard_range(first_seed: u64) -> Vec<Case> {
+    suite(first_seed, 3, 12, 3, 10, 2)
+}
+
+/// Seeds of the CI subset, from the development range: draws that finish in seconds on one
+/// thread (3-10 s here: a delay the diagnosis must name, saturation and pendulum coupling the
+/// seed's structure carries, two clean robots). Replace with the diagnosis's 12-draw CI subset
+/// when it exists.
+pub const CI_SEEDS: [u64; 5] = [1, 4, 9, 43, 44];
+
+/// Where each held-out range starts: ranges are this many seeds apart.
+pub const HELD_OUT_STRIDE: u64 = 10_000;
+
+/// The held-out ranges already run (`held-out-ranges.csv`).
+pub fn spent_ranges() -> Result<Vec<u64>> {
+    let path = crate::history::record_path();
+    let text =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let rows = crate::history::parse(&text).map_err(|e| anyhow::anyhow!(e))?;
+    Ok(rows.iter().map(|r| r.range).collect())
+}
+
+/// The next held-out range: one stride past the last one run.
+pub fn next_held_out() -> Result<u64> {
+    Ok(spent_ranges()?
+        .into_iter()
+        .max()
+        .map_or(1_000_000, |r| r + HELD_OUT_STRIDE))
+}
+
+/// The draws of `range` (the held-out range from `first_seed` or the next unspent one).
+pub fn range_cases(range: Range, first_seed: Option<u64>) -> Result<Vec<Case>> {
+    Ok(match (range, first_seed) {
+        (Range::Ci, Some(_)) => bail!("--first-seed: the ci range is a fixed set of draws"),
+        (Range::Ci, None) => standard_range(DEVELOPMENT_FIRST_SEED)
+            .into_iter()
+            .filter(|c| CI_SEEDS.contains(&c.seed))
+            .collect(),
+        (Range::Development, s) => standard_range(s.unwrap_or(DEVELOPMENT_FIRST_SEED)),
+        (Range::HeldOut, Some(s)) => {
+            if let Some(r) = spent_ranges()?
+                .into_iter()
+                .find(|&r| (r..r + HELD_OUT_STRIDE).contains(&s))
+            {
+                bail!(
+                    "--first-seed {s}: held-out range {r} was already run (validation/suites/\
+                     held-out-ranges.csv); a held-out range is run once. The next one starts \
+                     at {}",
+                    next_held_out()?
+                );
+            }
+            standard_range(s)
+        }
+        (Range::HeldOut, None) => standard_range(next_held_out()?),
+    })
+}
+
+/// Expected cost of a draw on one thread (s): the order of the development range's measured
+/// unit times by kind (bench/README.md). Only the ratios matter (the partition).
+pub fn expected_cost(c: &Case) -> f64 {
+    match &c.class {
+        Class::Clean => 3.0,
+        Class::Single(e) if crate::indep::IN_STRUCTURE.contains(&e.as_str()) => 5.0,
+        Class::Single(_) => 20.0,
+        Class::Pair => 40.0,
+        Class::Triple => 80.0,
+        Class::Outside(_) => 60.0,
+    }
+}
+
+/// The unit id of a draw.
+pub fn unit_id(c: &Case) -> String {
+    format!("draw-{}", c.seed)
+}
+
+/// The job of `range`.
+pub fn job(range: Range, first_seed: Option<u64>) -> Result<(Job, Vec<Case>)> {
+    let cases = range_cases(range, first_seed)?;
+    let units = cases
+        .iter()
+        .map(|c| UnitSpec::new(unit_id(c), expected_cost(c)))
+        .collect();
+    let params = json!({
+        "range": range.to_string(),
+        "first_seed": cases.first().map(|c| c.seed),
+        "draws": cases.len(),
+        "seeds": cases.iter().map(|c| c.seed).collect::<Vec<_>>(),
+        "time_limit_s": DRAW_TIME_LIMIT.as_secs(),
+    });
+    Ok((Job::new(JobKind::Suite, params, units)?, cases))
+}
+
+/// The range a suite job was made for.
+pub fn job_range(job: &Job) -> Result<(Range, Option<u64>)> {
+    let range: Range = job.params["range"]
+        .as_str()
+        .context("job.json: field `params.range` is missing")?
+        .parse()?;
+    let first = match range {
+        Range::Ci => None,
+        _ => job.params["first_seed"].as_u64(),
+    };
+    Ok((range, first))
+}
+
+/// One draw: its campaign written into a temporary folder by the independent simulator, the
+/// user's loop on one thread, the outcome as JSON.
+pub fn run_unit(case: &Case) -> Result<Value> {
+    let dir = tempfile::tempdir()?;
+    let o = run_case(case, dir.path())?;
+    Ok(serde_json::to_value(o)?)
+}
+
+/// Reads a NaN written as `null` back (serde_json writes a NaN ratio, that of a draw whose loop
+/// stopped on an error, as `null`).
+pub fn nan_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v: Option<f64> = serde::Deserialize::deserialize(d)?;
+    Ok(v.unwrap_or(f64::NAN))
+}
+
+fn title(range: Range, cases: &[Case]) -> String {
+    let (a, b) = (
+        cases.first().map_or(0, |c| c.seed),
+        cases.last().map_or(0, |c| c.seed),
+    );
+    match range {
+        Range::Development => format!("Development seeds {a}-{b} ({} draws)", cases.len()),
+        Range::HeldOut => format!("Held-out seeds {a}-{b} ({} draws)", cases.len()),
+        Range::Ci => format!(
+            "CI subset of the development seeds ({} draws: {})",
+            cases.len(),
+            cases
+                .iter()
+                .map(|c| c.seed.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
+
+/// One draw for the report (no wall time: the report is the same however the draws ran).
+pub fn draw_line(o: &Outcome) -> String {
+    format!(
+        "{:>7} {:<58} -> found [{}] {} ({:.1}x -> {:.2}x floor) {}{}  [{}]",
+        o.case.seed,
+        o.case.scenario,
+        o.found.join(", "),
+        match (&o.error, o.explained) {
+            (Some(e), _) => format!("error: {e}"),
+            (None, true) => "explained".into(),
+            (None, false) => "unexplained".into(),
+        },
+        o.identified_ratio,
+        o.final_ratio,
+        if o.right() { "ok" } else { "WRONG" },
+        if o.time_limit_reached {
+            ", time limit"
+        } else {
+            ""
+        },
+        o.truth
+    )
+}
+
+fn draw_json(o: &Outcome) -> Value {
+    json!({
+        "seed": o.case.seed,
+        "scenario": o.case.scenario,
+        "truth": o.truth,
+        "hidden": o.hidden,
+        "found": o.found,
+        "outcome": match (&o.error, o.explained) {
+            (Some(_), _) => "error",
+            (None, true) => "explained",
+            (None, false) => "unexplained",
+        },
+        "error": o.error,
+        "identified_ratio": o.identified_ratio,
+        "final_ratio": o.final_ratio,
+        "right": o.right(),
+        "closed": o.closed(),
+        "time_limit_reached": o.time_limit_reached,
+    })
+}
+
+/// The table, report and JSON of a suite job's units (`table.md`, `report.md`, `result.json`:
+/// the same bytes whatever the shards).
+pub fn render(c: &Collected) -> Result<Merged> {
+    let (range, first) = job_range(&c.job)?;
+    let cases = range_cases_for_merge(range, first, &c.job)?;
+    let outcomes: Vec<Outcome> = c
+        .done
+        .iter()
+        .map(|d| {
+            serde_json::from_value(d.outcome.clone())
+                .with_context(|| format!("unit {}: its outcome is not a suite draw", d.spec.id))
+        })
+        .collect::<Result<_>>()?;
+    let table = markdown(&title(range, &cases), &outcomes);
+    let mut report = format!("{table}\n");
+    for o in &outcomes {
+        report.push_str(&format!("    {}\n", draw_line(o)));
+    }
+    let s = scores(&outcomes);
+    let pair = |x: (usize, usize)| json!([x.0, x.1]);
+    let mut result = json!({
+        "format": "zmp-suite/1",
+        "range": range.to_string(),
+        "title": title(range, &cases),
+        "draws": outcomes.iter().map(draw_json).collect::<Vec<_>>(),
+        "scores": {
+            "singles": pair(s.singles),
+            "in_structure": pair(s.in_structure),
+            "multiples": pair(s.multiples),
+            "pairs": pair(s.pairs),
+            "clean": pair(s.clean),
+            "outside": pair(s.outside),
+            "closed": pair(s.closed),
+            "worst_closed_ratio": s.worst_closed_ratio,
+            "false_alarms": pair(s.false_alarms),
+        },
+        "complete": c.complete(),
+    });
+    if !c.complete() {
+        let failed: Vec<&str> = c.failed.iter().map(|f| f.unit.as_str()).collect();
+        result["failed"] = json!(failed);
+        result["missing"] = json!(c.missing);
+        report.push_str(&format!(
+            "\nIncomplete: {} of {} draws merged; failed: {}; missing: {}.\n",
+            outcomes.len(),
+            cases.len(),
+            if failed.is_empty() {
+                "none".into()
+            } else {
+                failed.join(", ")
+            },
+            if c.missing.is_empty() {
+                "none".into()
+            } else {
+                c.missing.join(", ")
+            },
+        ));
+    }
+    let mut json_text = serde_json::to_string_pretty(&result)?;
+    json_text.push('\n');
+    Ok(Merged {
+        files: vec![
+            ("table.md".into(), table.clone().into_bytes()),
+            ("report.md".into(), report.into_bytes()),
+            ("result.json".into(), json_text.into_bytes()),
+        ],
+        json: result,
+        text: table,
+    })
+}
+
+/// The draws of a job being merged: the job's own range (a held-out range already recorded
+/// as spent is still merged).
+fn range_cases_for_merge(range: Range, first: Option<u64>, job: &Job) -> Result<Vec<Case>> {
+    let cases = match range {
+        Range::HeldOut => standard_range(first.context("job.json: no `params.first_seed`")?),
+        _ => range_cases(range, first)?,
+    };
+    let ids: Vec<String> = cases.iter().map(unit_id).collect();
+    let job_ids: Vec<&String> = job.units.iter().map(|u| &u.id).collect();
+    if ids.iter().collect::<Vec<_>>() != job_ids {
+        bail!("job.json: its units are not the draws of the {range} range this code makes");
+    }
+    Ok(cases)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_name_their_draws_and_refuse_a_spent_held_out_range() {
+        let ci = range_cases(Range::Ci, None).unwrap();
+        assert_eq!(ci.iter().map(|c| c.seed).collect::<Vec<_>>(), CI_SEEDS);
+        assert_eq!(ci[0].scenario, "single:time_delay");
+        assert_eq!(ci[3].class, Class::Clean);
+        let dev = range_cases(Range::Development, None).unwrap();
+        assert_eq!(dev.len(), 60);
+        let spent = spent_ranges().unwrap();
+        let e = range_cases(Range::HeldOut, Some(spent[0] + 5))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("already run"), "{e}");
+        let next = next_held_out().unwrap();
+        assert!(spent.iter().all(|&r| r < next));
+        assert_eq!(range_cases(Range::HeldOut, None).unwrap()[0].seed, next);
+        assert!(range_cases(Range::Ci, Some(3)).is_err());
+        assert!("heldout".parse::<Range>().is_err());
+        let (job, cases) = job(Range::Ci, None).unwrap();
+        assert_eq!(job.units.len(), cases.len());
+        assert_eq!(job_range(&job).unwrap(), (Range::Ci, None));
+    }
+}
