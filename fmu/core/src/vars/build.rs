@@ -401,7 +401,7 @@ impl VarTable {
                     start: p.value,
                     min: p.spec.min,
                     max: p.spec.max,
-                    whole: p.spec.name == "delta_seed",
+                    whole: p.spec.whole,
                     role: Role::ModelParam(i),
                 });
             }
