@@ -9,25 +9,27 @@
 //! first-harmonic noise standard deviations ([`crate::response::record_noise_std`]) and by at
 //! least [`VISIBLE_RELATIVE`] of that channel's first harmonic without the effect, compared
 //! with the same draw without any hidden effect: linear effects from the small-signal
-//! response, `sensor_drift` from its exact first-harmonic projection `2|rate|/ω`, nonlinear
+//! response, `sensor_drift` and `sensor_rezero` from the drift's exact first-harmonic
+//! projection `2|rate|/ω` (each record's own rate for `sensor_rezero`), nonlinear
 //! ones by noise-free simulation of each (axis, amplitude, frequency) at the first operating
 //! point over the design's transient and one period (a change counts for every operating
 //! point: the mechanics do not depend on it). An effect outside the catalogue must also be
 //! visible, by the same rule, against its catalogue form with the same parameters
 //! (`EffectParams::catalogue_counterparts`: the linear transmission of a cubic stiffness, the
 //! Coulomb friction at a Stribeck friction's kinetic and at its static level, the first of two
-//! modes): what puts it outside the catalogue must show. The size quantile is drawn U(0, 1)
+//! modes): what puts it outside the catalogue must show; likewise a sensor re-zeroed at every
+//! record against one rate for every record, the records' mean. The size quantile is drawn U(0, 1)
 //! and, while the effect is invisible, redrawn U(q, 1) (8 draws at most, the last at q = 1);
 //! an effect still invisible is kept and reported with `visible = false`.
 
 use crate::design::Design;
-use crate::integrate::simulate_records;
-use crate::response::{record_noise_std, small_signal_response, steady_harmonic, Complex};
 use crate::robot::{
     AxisMechanics, CrossCoupling, Effect, FlexibleMode, Friction, HiddenEffect, Noise,
-    OpDependence, Pendulum, Robot, Sensor, Servo, Transmission,
+    OpDependence, OpPerChannel, Pendulum, Rezero, Robot, Sensor, Servo, Transmission,
 };
 use crate::scenario::Scenario;
+pub use crate::visibility::Visibility;
+use crate::visibility::{visibility, Harmonics};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -97,7 +99,7 @@ pub fn draw_with(seed: u64, scenario: &Scenario, design: &Design, options: &Draw
     let mut rng = stream(seed, 0);
     let base = draw_base(&mut rng, design);
     let mut robot = base.clone();
-    let mut probe_cache = None;
+    let mut probe_cache: Option<Harmonics> = None;
     for effect in scenario.effects() {
         let mut rng = stream(seed, 100 + effect as u64);
         let mut q_lo = 0.0;
@@ -132,7 +134,7 @@ pub fn draw_with(seed: u64, scenario: &Scenario, design: &Design, options: &Draw
         params.install(&mut robot);
         robot.hidden.push(HiddenEffect {
             effect,
-            name: effect.name().into(),
+            name: effect.catalogue_name().into(),
             in_catalogue: effect.in_catalogue(),
             nearest_catalogue: effect.nearest_catalogue().map(|e| e.name().into()),
             visible,
@@ -235,9 +237,11 @@ fn draw_base(rng: &mut ChaCha8Rng, design: &Design) -> Robot {
         axes,
         cross_coupling: None,
         op_dependence: None,
+        op_per_channel: None,
         sensor: Sensor {
             lowpass_cutoff: None,
             drift_rate: [0.0; 2],
+            rezero: None,
             noise,
         },
         hidden: Vec::new(),
@@ -255,7 +259,10 @@ enum EffectParams {
     Modes([Vec<FlexibleMode>; 2]),
     Lowpass([f64; 2]),
     OpDependence(OpDependence),
+    OpPerChannel(OpPerChannel),
     Drift([f64; 2]),
+    /// The mean rates and the record-to-record part.
+    Rezero([f64; 2], Rezero),
     Coupling(CrossCoupling),
 }
 
@@ -266,7 +273,9 @@ impl EffectParams {
     /// level, a second structural mode's first mode alone. What makes the effect outside the
     /// catalogue is visible when it is visible against each of them. Empty for catalogue
     /// effects and for the rate-limited servo (its nearest catalogue effect, the acceleration
-    /// limit, has no parameter in common with it).
+    /// limit, has no parameter in common with it). A sensor re-zeroed at every record is held
+    /// to the same rule against one rate for every record, its mean: what makes it a form of
+    /// its own, the rates that change from record to record, must show.
     fn catalogue_counterparts(&self, effect: Effect) -> Vec<EffectParams> {
         match (effect, self) {
             (Effect::CubicStiffness, EffectParams::Transmission(t)) => {
@@ -285,6 +294,9 @@ impl EffectParams {
                     }))
                 };
                 vec![coulomb(|f| f.kinetic), coulomb(|f| f.static_level)]
+            }
+            (Effect::SensorRezero, EffectParams::Rezero(mean, _)) => {
+                vec![EffectParams::Drift(*mean)]
             }
             (Effect::SecondStructuralMode, EffectParams::Modes(m)) => {
                 vec![EffectParams::Modes(m.clone().map(|mut m| {
@@ -312,7 +324,12 @@ impl EffectParams {
             EffectParams::Modes(m) => (0..2).for_each(|k| r.axes[k].modes = m[k].clone()),
             EffectParams::Lowpass(c) => r.sensor.lowpass_cutoff = Some(*c),
             EffectParams::OpDependence(o) => r.op_dependence = Some(o.clone()),
+            EffectParams::OpPerChannel(o) => r.op_per_channel = Some(o.clone()),
             EffectParams::Drift(d) => r.sensor.drift_rate = *d,
+            EffectParams::Rezero(mean, z) => {
+                r.sensor.drift_rate = *mean;
+                r.sensor.rezero = Some(z.clone());
+            }
             EffectParams::Coupling(c) => r.cross_coupling = Some(c.clone()),
         }
     }
@@ -433,25 +450,9 @@ fn draw_effect(
         }
         Effect::OperatingPointDependence => {
             let rho = log_at(0.02, 0.2, q);
-            let span = [0, 1].map(|k| {
-                design
-                    .operating_points
-                    .iter()
-                    .map(|op| op[k].abs())
-                    .fold(0.0, f64::max)
-            });
-            let mut slope = || {
-                [0, 1].map(|k| {
-                    let s = sign(rng) * rho * rng.gen_range(0.5..1.0);
-                    if span[k] > 0.0 {
-                        s / span[k]
-                    } else {
-                        0.0
-                    }
-                })
-            };
-            let a_slope = slope();
-            let b_slope = slope();
+            let span = op_span(design);
+            let a_slope = op_slope(rng, rho, span);
+            let b_slope = op_slope(rng, rho, span);
             EffectParams::OpDependence(OpDependence { a_slope, b_slope })
         }
         Effect::SensorDrift => {
@@ -459,6 +460,31 @@ fn draw_effect(
             let first = sign(rng) * rate;
             let second = sign(rng) * rate * rng.gen_range(0.2..1.0);
             EffectParams::Drift(pair_swapped(rng, first, second))
+        }
+        Effect::SensorRezero => {
+            let s = log_at(0.02e-3, 0.5e-3, q);
+            let other = s * rng.gen_range(0.2..1.0);
+            let spread = pair_swapped(rng, s, other);
+            let mean = spread.map(|s| sign(rng) * s * rng.gen_range(0.0..0.5));
+            let seed = u64::from(rng.gen::<u32>());
+            EffectParams::Rezero(mean, Rezero { spread, seed })
+        }
+        Effect::OpPerChannel => {
+            let rho = log_at(0.02, 0.2, q);
+            let span = op_span(design);
+            // One or two of the four channels move, each with its own slopes.
+            let mut channels = vec![(0, 0), (0, 1), (1, 0), (1, 1)];
+            let moving = if rng.gen_bool(0.5) { 1 } else { 2 };
+            let mut o = OpPerChannel {
+                a_slope: [[[0.0; 2]; 2]; 2],
+                b_slope: [[[0.0; 2]; 2]; 2],
+            };
+            for _ in 0..moving {
+                let (i, j) = channels.swap_remove(rng.gen_range(0..channels.len()));
+                o.a_slope[i][j] = op_slope(rng, rho, span);
+                o.b_slope[i][j] = op_slope(rng, rho, span);
+            }
+            EffectParams::OpPerChannel(o)
         }
         Effect::CrossCoupling => {
             let drawn = rng.gen_bool(0.5);
@@ -486,130 +512,26 @@ fn draw_effect(
     }
 }
 
-/// How visible an effect is on a design.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Visibility {
-    /// The verdict of the rule in the module docs.
-    pub visible: bool,
-    /// Largest change of a record's first harmonic, in noise standard deviations.
-    pub max_sigmas: f64,
-    /// Largest change of a record's first harmonic relative to it without the effect.
-    pub max_relative: f64,
-    /// Records that changed visibly.
-    pub records: usize,
+/// The largest `|op_k|` of the design's operating points per CoM axis, m.
+fn op_span(design: &Design) -> [f64; 2] {
+    [0, 1].map(|k| {
+        design
+            .operating_points
+            .iter()
+            .map(|op| op[k].abs())
+            .fold(0.0, f64::max)
+    })
 }
 
-impl Visibility {
-    /// Adds one record's first harmonics (per output) with and without the effect; the
-    /// record counts `weight` times.
-    fn add(&mut self, without: [Complex; 2], with: [Complex; 2], sigma: f64, weight: usize) {
-        let mut counts = false;
-        for i in 0..2 {
-            let d = (with[i] - without[i]).abs();
-            let sig = d / sigma.max(1e-300);
-            let rel = d / without[i].abs().max(1e-300);
-            self.max_sigmas = self.max_sigmas.max(sig);
-            self.max_relative = self.max_relative.max(rel);
-            counts |= sig >= VISIBLE_SIGMAS && rel >= VISIBLE_RELATIVE;
+/// Slopes along x and y (1/m) whose relative change at the farthest operating point is
+/// `± rho · U(0.5, 1)`, independent signs; 0 along an axis the design does not move.
+fn op_slope(rng: &mut ChaCha8Rng, rho: f64, span: [f64; 2]) -> [f64; 2] {
+    [0, 1].map(|k| {
+        let s = sign(rng) * rho * rng.gen_range(0.5..1.0);
+        if span[k] > 0.0 {
+            s / span[k]
+        } else {
+            0.0
         }
-        if counts {
-            self.records += weight;
-        }
-        self.visible = self.records >= VISIBLE_MIN_RECORDS;
-    }
-}
-
-/// The probe design of the nonlinear visibility test: the first operating point, noise-free,
-/// the design's transient and one steady period.
-fn probe_design(design: &Design) -> Design {
-    Design {
-        operating_points: vec![design.operating_points[0]],
-        periods: 1.0,
-        min_steady_s: 0.0,
-        quantisation: 0.0,
-        noise: Some(Noise::zero()),
-        zmp_noise_std: None,
-        ..design.clone()
-    }
-}
-
-fn probe_harmonics(robot: &Robot, probe: &Design) -> Vec<[Complex; 2]> {
-    let specs = probe.records();
-    simulate_records(robot, probe, &specs)
-        .iter()
-        .map(|r| {
-            let z = &r.truth.zmp_noise_free;
-            [
-                steady_harmonic(&r.meta, &r.t, &z[0]),
-                steady_harmonic(&r.meta, &r.t, &z[1]),
-            ]
-        })
-        .collect()
-}
-
-/// How visible `effect` (installed in `with`) is against `base` on `design`. `probe_cache`
-/// keeps the base robot's probe harmonics between calls (same base, same design).
-pub(crate) fn visibility(
-    effect: Effect,
-    base: &Robot,
-    with: &Robot,
-    design: &Design,
-    probe_cache: &mut Option<Vec<[Complex; 2]>>,
-) -> Visibility {
-    let mut vis = Visibility::default();
-    let records = design.records();
-    match effect {
-        Effect::Backlash
-        | Effect::CoulombFriction
-        | Effect::StribeckFriction
-        | Effect::AccelerationSaturation
-        | Effect::RateLimitedServo
-        | Effect::CubicStiffness => {
-            let probe = probe_design(design);
-            let without = probe_cache
-                .get_or_insert_with(|| probe_harmonics(base, &probe))
-                .clone();
-            let changed = probe_harmonics(with, &probe);
-            let n_ops = design.operating_points.len();
-            for k in 0..probe.records().len() {
-                // Noise of the matching design record (the same at every operating point).
-                let sigma = record_noise_std(base, design, &records[k]);
-                vis.add(without[k], changed[k], sigma, n_ops);
-            }
-        }
-        Effect::SensorDrift => {
-            for spec in &records {
-                let Some(g) = small_signal_response(base, spec.operating_point, spec.omega) else {
-                    continue;
-                };
-                let j = spec.excited.index();
-                let without = [g[0][j].scale(spec.amplitude), g[1][j].scale(spec.amplitude)];
-                let mut changed = without;
-                for (i, c) in changed.iter_mut().enumerate() {
-                    let d = 2.0 * with.sensor.drift_rate[i].abs() / spec.omega;
-                    *c = *c + Complex::new(d, 0.0);
-                }
-                vis.add(without, changed, record_noise_std(base, design, spec), 1);
-            }
-        }
-        _ => {
-            for spec in &records {
-                let (Some(g0), Some(g1)) = (
-                    small_signal_response(base, spec.operating_point, spec.omega),
-                    small_signal_response(with, spec.operating_point, spec.omega),
-                ) else {
-                    continue;
-                };
-                let j = spec.excited.index();
-                let a = spec.amplitude;
-                vis.add(
-                    [g0[0][j].scale(a), g0[1][j].scale(a)],
-                    [g1[0][j].scale(a), g1[1][j].scale(a)],
-                    record_noise_std(base, design, spec),
-                    1,
-                );
-            }
-        }
-    }
-    vis
+    })
 }
