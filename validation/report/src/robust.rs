@@ -2,7 +2,7 @@
 //! `identify`, `loop` and `robust` print (text and JSON) and the figure of `|T|` against
 //! `1/|W|` per channel.
 
-use crate::plot::{magnitude_svg, BodePanel, BodeSeries, PALETTE};
+use crate::plot::{bode_svg, BodePanel, BodeSeries, PALETTE};
 use anyhow::Result;
 use num_complex::Complex64;
 use serde::Serialize;
@@ -78,7 +78,7 @@ const SHOWN: (f64, f64) = (1e-3, 1e2);
 
 /// `|T_k|` (line) against `1/|W_k|` (dashed) for each weighted channel, and the structured
 /// bound against 1: the loop is robustly stable where every `|T|` stays under its `1/|W|` and
-/// the bound under 1. Written with [`magnitude_svg`] (atomic, `overwrite` as `--force`).
+/// the bound under 1. Written with [`bode_svg`], magnitudes only (atomic, `overwrite` as `--force`).
 pub fn write_plot(path: &Path, a: &RobustAnalysis, overwrite: bool) -> Result<()> {
     let shown: Vec<usize> = (0..a.curves.omega.len())
         .filter(|&k| (SHOWN.0..=SHOWN.1).contains(&a.curves.omega[k]))
@@ -103,6 +103,7 @@ pub fn write_plot(path: &Path, a: &RobustAnalysis, overwrite: bool) -> Result<()
                 BodeSeries::line("1/|W|", omega.clone(), inv_w, PALETTE[1]).dashed(),
             ],
             bands: vec![],
+            magnitude_only: true,
         });
     }
     if let Some(s) = a.structured {
@@ -118,9 +119,10 @@ pub fn write_plot(path: &Path, a: &RobustAnalysis, overwrite: bool) -> Result<()
                 BodeSeries::line("1", omega.clone(), ones, PALETTE[5]).dashed(),
             ],
             bands: vec![],
+            magnitude_only: true,
         });
     }
-    magnitude_svg(path, &panels, 2, overwrite)
+    bode_svg(path, &panels, 2, overwrite)
 }
 
 /// Words for a channel's loop in reports: `zmp_y from y_cr`.

@@ -7,6 +7,9 @@ use super::*;
 use crate::zmp::GRAVITY;
 use std::sync::OnceLock;
 
+#[path = "../../../report/tests/support/html.rs"]
+mod html;
+
 pub(super) fn twin() -> Silo2 {
     Silo2::load(&default_mjcf()).expect("models/mjcf/silo2.xml loads")
 }
@@ -351,3 +354,31 @@ fn the_readme_sections_quote_the_run() {
 }
 
 mod findings;
+
+#[test]
+fn the_reports_are_fit_to_be_read() {
+    let (dir, s) = short_run();
+    let out = dir.path().join("twin");
+    // The twin's report, and the identification and diagnosis reports it links to, pass the
+    // report checks (support/html.rs: no markup shown as text, every reference beside the
+    // report, every figure an SVG or PNG that parses, no heading without content, no empty
+    // table).
+    let page = html::check_page(&out.join("report.html"));
+    for sub in ["identify/report.html", "diagnosis/diagnosis.html"] {
+        html::check_page(&out.join(sub));
+        assert_eq!(page.select(&format!("a[href=\"{sub}\"]")).len(), 1, "{sub}");
+    }
+    // The closed loop's figure is there, with its three panels (seed figures 18-20).
+    let cl = page.section("Closed loop");
+    let img = html::within(&cl, "img");
+    assert_eq!(img.len(), 1);
+    let svg = std::fs::read_to_string(out.join("closed_loop.svg")).unwrap();
+    for fig in ["seed fig. 18", "seed fig. 19", "seed fig. 20"] {
+        assert!(svg.contains(fig), "closed_loop.svg has no {fig}");
+    }
+    // One row per identified parameter, every finding of the diagnosis listed.
+    let rows = html::within(&page.section("Campaign and identification"), "tr");
+    assert_eq!(rows.len(), s.parameters.len() + 1);
+    let found = html::within(&page.section("Diagnosis on the twin"), "li");
+    assert_eq!(found.len(), s.diagnosis.findings.len());
+}
