@@ -6,7 +6,7 @@
 //! ```text
 //! com_ref_j --Command effects (per input axis j)--> servo (tracking low-pass; Servo effects
 //!   limit its acceleration) --> CoM x_cj, acceleration --> pendulum a_ij x_cj - b_ij x_cj''
-//!   (Pendulum effects rescale a, b) --> Channel effects (per G_ij) --> sum over j
+//!   (PendulumScale effects rescale a_ij, b_ij) --> Channel effects (per G_ij) --> sum over j
 //!   --> Sensor effects (per output axis i) --> zmp_i
 //! ```
 
@@ -21,13 +21,24 @@ pub enum Site {
     Command,
     /// The servo of one input axis: the core tracking low-pass, or a limit on its acceleration.
     Servo,
-    /// The 2×2 pendulum: the core coefficients, or a modifier of them.
+    /// The 2×2 pendulum's core coefficients.
     Pendulum,
+    /// A rescaling of the pendulum's coefficients `a_ij`, `b_ij`: one instance for every
+    /// channel (bound globally: a flat table), or one per channel `G_ij` (sub-tables).
+    PendulumScale,
     /// On one channel `G_ij`, multiplicatively.
     Channel,
     /// On the measured ZMP of one output axis.
     Sensor,
 }
+
+const AXES: [Binding; 2] = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
+const CHANNELS: [Binding; 4] = [
+    Binding::Channel(Channel::ALL[0]),
+    Binding::Channel(Channel::ALL[1]),
+    Binding::Channel(Channel::ALL[2]),
+    Binding::Channel(Channel::ALL[3]),
+];
 
 /// The place one instance of an effect is bound to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -41,19 +52,42 @@ pub enum Binding {
 }
 
 impl Binding {
-    /// The bindings an effect at `site` can have, in canonical order.
+    /// The bindings a flat table gives an effect at `site` (an instance for each), in
+    /// canonical order.
     pub fn all_for(site: Site) -> &'static [Binding] {
-        const AXES: [Binding; 2] = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
-        const CHANNELS: [Binding; 4] = [
-            Binding::Channel(Channel::ALL[0]),
-            Binding::Channel(Channel::ALL[1]),
-            Binding::Channel(Channel::ALL[2]),
-            Binding::Channel(Channel::ALL[3]),
-        ];
         match site {
             Site::Command | Site::Servo | Site::Sensor => &AXES,
             Site::Channel => &CHANNELS,
-            Site::Pendulum => &[Binding::Global],
+            Site::Pendulum | Site::PendulumScale => &[Binding::Global],
+        }
+    }
+
+    /// The bindings a sub-table of an effect at `site` can name (`[uncertainty.G11]`,
+    /// `[time_delay.x]`), in canonical order; none for the core pendulum.
+    pub fn named_for(site: Site) -> &'static [Binding] {
+        match site {
+            Site::Command | Site::Servo | Site::Sensor => &AXES,
+            Site::Channel | Site::PendulumScale => &CHANNELS,
+            Site::Pendulum => &[],
+        }
+    }
+
+    /// The canonical rank of this binding among those of `site` (a flat table's first).
+    pub fn rank(self, site: Site) -> usize {
+        let flat = Binding::all_for(site);
+        flat.iter()
+            .chain(Binding::named_for(site))
+            .position(|b| *b == self)
+            .unwrap_or(flat.len() + Binding::named_for(site).len())
+    }
+
+    /// Whether an instance bound here acts on channel `c` (a global binding acts on every
+    /// channel; an axis binding on the channels from that input axis).
+    pub fn covers(self, c: Channel) -> bool {
+        match self {
+            Binding::Global => true,
+            Binding::Axis(a) => c.input == a,
+            Binding::Channel(d) => d == c,
         }
     }
 
@@ -66,9 +100,9 @@ impl Binding {
         }
     }
 
-    /// The binding of an effect at `site` whose model-file key is `key` (`x`, `G21`); `None` if the site has no such place.
+    /// The binding a sub-table key names (`x`, `G21`) for an effect at `site`; `None` if the site has no such place.
     pub fn parse(site: Site, key: &str) -> Option<Binding> {
-        Binding::all_for(site)
+        Binding::named_for(site)
             .iter()
             .copied()
             .find(|b| b.key() == Some(key))
@@ -96,6 +130,8 @@ pub struct ParamSpec {
     pub default: Option<f64>,
     /// What the parameter is, for the model page and the FMU's variable description.
     pub doc: &'static str,
+    /// The value must be a whole number (a random seed).
+    pub whole: bool,
 }
 
 impl ParamSpec {
@@ -114,6 +150,7 @@ impl ParamSpec {
             max,
             default: None,
             doc,
+            whole: false,
         }
     }
 
@@ -133,6 +170,16 @@ impl ParamSpec {
             max,
             default: Some(default),
             doc,
+            whole: false,
+        }
+    }
+
+    /// The same parameter, restricted to whole numbers (a model file with a fraction is an
+    /// error naming it; FMU variables refuse one).
+    pub const fn whole(self) -> ParamSpec {
+        ParamSpec {
+            whole: true,
+            ..self
         }
     }
 }
@@ -256,6 +303,11 @@ pub trait Effect: Send + Sync + fmt::Debug {
         let j = jump.map(|v| self.jump(v));
         (j, self.step(u))
     }
+
+    /// Effects whose law changes from record to record (a re-zeroed sensor's drift rate):
+    /// the record that the next reset begins (see [`crate::Plant::set_record`]). Record 0
+    /// until told otherwise.
+    fn begin_record(&mut self, _record: u64) {}
 
     /// Servo effects: the acceleration the servo achieves for a demanded one at `velocity`.
     #[inline]

@@ -16,6 +16,8 @@
 //! k = 4.0
 //! z = 1.0
 //! p = 10.0
+//! [operating_point_dependence.G12]  # a pendulum rescaling: a flat table is one law for
+//! da_dx = 2.0                       # every channel, sub-tables one per channel G11..G22
 //! ```
 //!
 //! A table with sub-tables has exactly the instances it names, each with the table's own values
@@ -230,11 +232,7 @@ impl ModelSpec {
                 .iter()
                 .position(|i| std::ptr::eq(*i, e.info))
                 .unwrap_or(usize::MAX);
-            let b = crate::effect::Binding::all_for(e.info.site)
-                .iter()
-                .position(|b| *b == e.binding)
-                .unwrap_or(0);
-            (r, b)
+            (r, e.binding.rank(e.info.site))
         };
         self.effects.sort_by_key(rank);
     }
@@ -400,9 +398,12 @@ impl ModelSpec {
             if inst.is_empty() {
                 continue;
             }
+            // A flat table where it reads back as the same instances: every binding a flat
+            // table gives, with equal values.
             let all = crate::effect::Binding::all_for(info.site);
-            let uniform =
-                inst.len() == all.len() && inst.iter().all(|e| e.values == inst[0].values);
+            let uniform = inst.len() == all.len()
+                && inst.iter().zip(all).all(|(e, b)| e.binding == *b)
+                && inst.iter().all(|e| e.values == inst[0].values);
             let _ = writeln!(s, "\n# {}: {}", info.title, info.doc);
             if uniform {
                 let _ = writeln!(s, "[{}]", info.kind);
@@ -455,6 +456,13 @@ fn check_values(
         }
     }
     for (p, v) in info.params.iter().zip(values) {
+        if p.whole && v.is_finite() && v.fract() != 0.0 {
+            return Err(err(
+                file,
+                format!("{}.{}", key(), p.name),
+                format!("{} = {v} must be a whole number ({})", p.name, p.doc),
+            ));
+        }
         if !v.is_finite() || *v < p.min || *v > p.max {
             return Err(err(
                 file,
@@ -563,7 +571,7 @@ fn parse_effect(
 
 fn unknown_param(info: &EffectInfo, file: &str, key: &str) -> ModelError {
     let params: Vec<&str> = info.params.iter().map(|p| p.name).collect();
-    let bindings: Vec<&str> = Binding::all_for(info.site)
+    let bindings: Vec<&str> = Binding::named_for(info.site)
         .iter()
         .filter_map(|b| b.key())
         .collect();

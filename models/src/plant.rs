@@ -61,7 +61,8 @@ pub struct Plant {
     in_loop: [Chain; 2],
     lowpass: [TrackingLowpass; 2],
     pendulum: Pendulum,
-    pendulum_mods: Chain,
+    /// The pendulum rescalings of each channel `[i][j]` (a globally bound one is on all four).
+    pendulum_mods: [[Chain; 2]; 2],
     channel: [[Chain; 2]; 2],
     sensor: [Chain; 2],
     operating_point: [f64; 2],
@@ -237,7 +238,7 @@ impl Plant {
             in_loop: [Vec::new(), Vec::new()],
             lowpass,
             pendulum,
-            pendulum_mods: Vec::new(),
+            pendulum_mods: [[Vec::new(), Vec::new()], [Vec::new(), Vec::new()]],
             channel: [[Vec::new(), Vec::new()], [Vec::new(), Vec::new()]],
             sensor: [Vec::new(), Vec::new()],
             operating_point: [0.0; 2],
@@ -280,7 +281,14 @@ impl Plant {
             }
             (Site::Command, Binding::Axis(a)) => self.command[a.index()].push(effect),
             (Site::Servo, Binding::Axis(a)) => self.servo_limits[a.index()].push(effect),
-            (Site::Pendulum, _) => self.pendulum_mods.push(effect),
+            (Site::PendulumScale, b) => {
+                // One effect per channel it covers (an effect steps alone: no shared state).
+                let mut effect = Some(effect);
+                for c in Channel::ALL.into_iter().filter(|c| b.covers(*c)) {
+                    let e = effect.take().unwrap_or_else(|| inst.build(&ctx));
+                    self.pendulum_mods[c.output.index()][c.input.index()].push(e);
+                }
+            }
             (Site::Channel, Binding::Channel(c)) => {
                 self.channel[c.output.index()][c.input.index()].push(effect)
             }
@@ -333,34 +341,46 @@ impl Plant {
 
     /// The operating point `[x, y]` (m) that operating-point-dependent effects see.
     ///
-    /// Pendulum modifiers scale `a` by `s(x_c)` and `b` by `t(x_c)` at the CoM position; the
-    /// plant linearises `zmp_i = s(x_c) sum_j a_ij x_cj` about `op`: at rest the ZMP is
-    /// `s(op) a op`, and a motion `dx_j` moves it by the slope of that static map,
-    /// `a_ij s(op) + ds/dx_j (a op)_i` (exact for the first harmonic: the rest of a square
-    /// term is a mean shift and a second harmonic). `b` multiplies the acceleration, zero at
-    /// rest, so its small-signal gain is `b_ij t(op)`.
+    /// Pendulum rescalings scale channel `ij`'s `a_ij` by `s_ij(x_c)` and `b_ij` by
+    /// `t_ij(x_c)` at the CoM position; the plant linearises `zmp_i = sum_j s_ij(x_c) a_ij x_cj`
+    /// about `op`: at rest the ZMP is `sum_j s_ij(op) a_ij op_j`, and a motion `dx_k` moves it
+    /// by the slope of that static map, `a_ik s_ik(op) + sum_j a_ij op_j ds_ij/dx_k` (exact for
+    /// the first harmonic: the rest of a square term is a mean shift and a second harmonic).
+    /// Where a row's channels have the same gradient `g` (one law for every channel) the sum is
+    /// `g_k (a op)_i`, computed so. `b` multiplies the acceleration, zero at rest, so its
+    /// small-signal gain is `b_ij t_ij(op)`.
     pub fn set_operating_point(&mut self, op: [f64; 2]) {
         self.operating_point = op;
-        let (mut sa, mut sb) = (1.0, 1.0);
-        let mut grad = [0.0; 2];
-        for m in &self.pendulum_mods {
-            let (a, b) = m.pendulum_scale(op);
-            let g = m.pendulum_scale_gradient(op);
-            // Product rule: d(sa a)/dx = g sa + a d(sa)/dx.
-            for k in 0..2 {
-                grad[k] = grad[k] * a + g[k] * sa;
-            }
-            sa *= a;
-            sb *= b;
-        }
         let a0 = self.pendulum.a;
         for i in 0..2 {
-            let static_i = a0[i][0] * op[0] + a0[i][1] * op[1];
+            // Scales and their gradients per channel of row i; product rule over the
+            // rescalings of a channel: d(s1 s2)/dx = g1 s2 + s1 g2.
+            let mut sa = [1.0; 2];
+            let mut sb = [1.0; 2];
+            let mut grad = [[0.0; 2]; 2];
             for j in 0..2 {
-                self.a[i][j] = a0[i][j] * sa;
-                self.a_lin[i][j] = a0[i][j] * sa + grad[j] * static_i;
-                self.a_off[i][j] = (self.a[i][j] - self.a_lin[i][j]) * op[j];
-                self.b[i][j] = self.pendulum.b[i][j] * sb;
+                for m in &self.pendulum_mods[i][j] {
+                    let (a, b) = m.pendulum_scale(op);
+                    let g = m.pendulum_scale_gradient(op);
+                    for k in 0..2 {
+                        grad[j][k] = grad[j][k] * a + g[k] * sa[j];
+                    }
+                    sa[j] *= a;
+                    sb[j] *= b;
+                }
+            }
+            let slope = |k: usize| {
+                if grad[0][k] == grad[1][k] {
+                    grad[0][k] * (a0[i][0] * op[0] + a0[i][1] * op[1])
+                } else {
+                    grad[0][k] * a0[i][0] * op[0] + grad[1][k] * a0[i][1] * op[1]
+                }
+            };
+            for k in 0..2 {
+                self.a[i][k] = a0[i][k] * sa[k];
+                self.a_lin[i][k] = a0[i][k] * sa[k] + slope(k);
+                self.a_off[i][k] = (self.a[i][k] - self.a_lin[i][k]) * op[k];
+                self.b[i][k] = self.pendulum.b[i][k] * sb[k];
             }
         }
     }
@@ -381,6 +401,26 @@ impl Plant {
     /// CoM position; see [`Plant::set_operating_point`]).
     pub fn pendulum_gain_at_operating_point(&self) -> ([[f64; 2]; 2], [[f64; 2]; 2]) {
         (self.a_lin, self.b)
+    }
+
+    /// Tells the plant which record of a campaign it runs next (0 until told): effects whose
+    /// law changes from record to record take that record's values (a re-zeroed sensor's
+    /// drift rate, `sensor_drift`'s `rate_spread`). Call it before the record's
+    /// [`Plant::reset`]; nothing else changes.
+    pub fn set_record(&mut self, record: u64) {
+        let chains = self
+            .command
+            .iter_mut()
+            .chain(self.servo_limits.iter_mut())
+            .chain(self.in_loop.iter_mut())
+            .chain(self.pendulum_mods.iter_mut().flatten())
+            .chain(self.channel.iter_mut().flatten())
+            .chain(self.sensor.iter_mut());
+        for chain in chains {
+            for e in chain.iter_mut() {
+                e.begin_record(record);
+            }
+        }
     }
 
     /// Puts the whole plant at rest for the constant CoM reference `com_ref`.

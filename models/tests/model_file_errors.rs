@@ -436,3 +436,57 @@ fn an_effect_taken_out_takes_its_standard_errors_with_it() {
     let back = ModelSpec::parse(&written, FILE).unwrap();
     assert!(back.stderr.contains_key("pendulum") && !back.stderr.contains_key("backlash"));
 }
+
+/// The operating-point dependence per channel: sub-tables name channels (an axis or an
+/// unknown key is an error listing them), the core pendulum takes none, and a model with
+/// channels of their own and a re-zeroed drifting sensor round-trips through `to_toml`.
+#[test]
+fn operating_point_dependence_per_channel_and_rezeroed_drift_in_the_model_file() {
+    expect_error(
+        &with("[operating_point_dependence.x]\nda_dx = 1.0\n"),
+        "operating_point_dependence.x",
+        &["unknown", "G11", "G22"],
+    );
+    expect_error(
+        &with("[pendulum.G11]\na11 = 1.0\n"),
+        "pendulum.G11",
+        &["unknown"],
+    );
+    expect_error(
+        &with("[sensor_drift]\nrate_spread = 1e-4\nrate_seed = 2.5\n"),
+        "sensor_drift.x.rate_seed",
+        &["whole number", "2.5"],
+    );
+    expect_error(
+        &with("[sensor_drift.y]\nrate_spread = -1e-4\n"),
+        "sensor_drift.y.rate_spread",
+        &["out of bounds"],
+    );
+    let spec = ModelSpec::parse(
+        &with(
+            "[operating_point_dependence]\ndb_dy = 0.5\n[operating_point_dependence.G12]\n\
+             da_dx = 3.0\n[operating_point_dependence.G21]\nda_dy = -2.0\n\
+             [sensor_drift]\nrate = 1e-5\nrate_spread = 2e-5\nrate_seed = 9\n",
+        ),
+        FILE,
+    )
+    .unwrap();
+    let keys: Vec<String> = spec.effects.iter().map(|e| e.key()).collect();
+    assert!(
+        keys.contains(&"operating_point_dependence.G12".to_string()),
+        "{keys:?}"
+    );
+    assert!(
+        !keys.iter().any(|k| k == "operating_point_dependence.G11"),
+        "{keys:?}"
+    );
+    let g21 = zmp_models::Binding::Channel(zmp_models::Channel::ALL[2]);
+    assert_eq!(
+        spec.get(EffectKind::OperatingPointDependence, g21)
+            .unwrap()
+            .values,
+        vec![0.0, -2.0, 0.0, 0.5]
+    );
+    round_trip(&spec);
+    Plant::new(&spec, 1e-3).unwrap();
+}

@@ -22,6 +22,8 @@
 //! - The transient is gone after `(10 + ln(1 + R)) * plant.slowest_time_constant()` plus the
 //!   delay, `R` the largest feedthrough-to-response ratio: the start-up transient can be `R` times
 //!   the steady response. The first harmonic is fitted over whole periods after that.
+//! - The operating-point dependence is drawn as one flat law or one law per channel (some
+//!   channels without slopes), so both forms of the model file are stepped.
 //! - The parameter ranges keep `G_ij(j omega)` away from cancellations (a relative tolerance means
 //!   nothing at a zero of `G`): the off-diagonal `a_ij` and `b_ij` share their sign (negative
 //!   coupling included), and the uncertainty has `|W Delta| <= 0.8` so `|1 + W Delta| >= 0.2`.
@@ -59,6 +61,9 @@ impl Unc {
     }
 }
 
+/// `(da_dx, da_dy, db_dx, db_dy)` per channel `[i][j]`.
+type Slopes = [[[f64; 4]; 2]; 2];
+
 #[derive(Debug, Clone)]
 struct Case {
     a: [[f64; 2]; 2],
@@ -72,8 +77,9 @@ struct Case {
     /// Per input axis delay, s.
     delay: Option<[f64; 2]>,
     uncertainty: Option<[[Unc; 2]; 2]>,
-    /// `(da_dx, da_dy, db_dx, db_dy)` and the operating point.
-    operating_point: Option<([f64; 4], [f64; 2])>,
+    /// `(da_dx, da_dy, db_dx, db_dy)` per channel `[i][j]`, whether they are one flat table
+    /// (all four equal) or one sub-table per channel, and the operating point.
+    operating_point: Option<(Slopes, bool, [f64; 2])>,
     omega: f64,
 }
 
@@ -135,29 +141,46 @@ impl Case {
                 }
             }
         }
-        if let Some((d, _)) = self.operating_point {
-            s += &format!(
-                "[operating_point_dependence]\nda_dx = {}\nda_dy = {}\ndb_dx = {}\ndb_dy = {}\n",
-                f(d[0]),
-                f(d[1]),
-                f(d[2]),
-                f(d[3])
-            );
+        if let Some((d, flat, _)) = self.operating_point {
+            let table = |d: [f64; 4]| {
+                format!(
+                    "da_dx = {}\nda_dy = {}\ndb_dx = {}\ndb_dy = {}\n",
+                    f(d[0]),
+                    f(d[1]),
+                    f(d[2]),
+                    f(d[3])
+                )
+            };
+            if flat {
+                s += &format!("[operating_point_dependence]\n{}", table(d[0][0]));
+            } else {
+                for i in 0..2 {
+                    for j in 0..2 {
+                        s += &format!(
+                            "[operating_point_dependence.{}]\n{}",
+                            CH[i][j],
+                            table(d[i][j])
+                        );
+                    }
+                }
+            }
         }
         s
     }
 
     fn op(&self) -> [f64; 2] {
-        self.operating_point.map(|(_, op)| op).unwrap_or([0.0; 2])
+        self.operating_point
+            .map(|(_, _, op)| op)
+            .unwrap_or([0.0; 2])
     }
 
     /// The first-order-hold stages of channel `ij`, as frequency-response closures of a real
     /// frequency (negative frequencies allowed: `s = j nu`).
     fn stages(&self, i: usize, j: usize) -> Vec<Box<dyn Fn(f64) -> Complex64 + '_>> {
         let (sa, sb) = match self.operating_point {
-            Some((d, op)) => (
-                1.0 + d[0] * op[0] + d[1] * op[1],
-                1.0 + d[2] * op[0] + d[3] * op[1],
+            Some((d, _, op)) => (
+                1.0 + d[i][j][0] * op[0] + d[i][j][1] * op[1],
+                1.0 + d[i][j][2] * op[0] + d[i][j][3] * op[1],
             ),
             None => (1.0, 1.0),
         };
@@ -274,10 +297,26 @@ fn case() -> impl Strategy<Value = Case> {
     ]);
     let delay = proptest::option::of([0.0..0.05f64, 0.0..0.05f64]);
     let unc = proptest::option::of([[unc(), unc()], [unc(), unc()]]);
+    // One flat law, or a law per channel where some channels have no slopes (a zero draw).
+    let slopes = || {
+        prop_oneof![
+            Just([0.0; 4]),
+            [-2.0..2.0f64, -2.0..2.0f64, -2.0..2.0f64, -2.0..2.0f64]
+        ]
+    };
     let op = proptest::option::of((
-        [-2.0..2.0f64, -2.0..2.0f64, -2.0..2.0f64, -2.0..2.0f64],
+        [[slopes(), slopes()], [slopes(), slopes()]],
+        proptest::bool::ANY,
         [-0.1..0.1f64, -0.1..0.1f64],
-    ));
+    ))
+    .prop_map(|o| {
+        o.map(|(mut d, flat, op)| {
+            if flat {
+                d = [[d[0][0]; 2]; 2];
+            }
+            (d, flat, op)
+        })
+    });
     (
         pendulum,
         lowpass,

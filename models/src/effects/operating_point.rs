@@ -3,15 +3,22 @@
 //! `b_ij` with `db_dx`, `db_dy`; the ZMP is `zmp_i = sum_j a_ij(x_c) x_cj - b_ij(x_c) x_cj''`
 //! at the instantaneous CoM. The model's own `a_ij`, `b_ij` are the values at the origin.
 //!
+//! Each channel `G_ij` may have its own slopes: the effect is bound per channel
+//! (`[operating_point_dependence.G12]`, as the uncertainty is), and a flat table is one
+//! instance bound to every channel, the same slopes for each (the law of model files written
+//! before the slopes could differ, which read and simulate as they did). A channel without an
+//! instance keeps its coefficients.
+//!
 //! The plant linearises this law about the operating point `op` (the constant CoM reference a
 //! record oscillates about), exactly for the first harmonic: the static ZMP stays
-//! `a(op) op`, and a small motion `dx_j` moves it by the derivative of that static map,
-//! `a_ij (1 + da.op) + da_j (a op)_i`, not by `a_ij(op)` alone (the scaled coefficients alone
-//! would give a small-signal gain that disagrees with the slope of the static ZMP, and no
-//! cross-axis term where the other axis's CoM sits away from the origin). `b` enters only
-//! with the acceleration, which is zero at rest: its small-signal gain is `b_ij(op)`. What the
-//! linearisation leaves out are the second harmonic and the mean shift of `da (dx)^2`, which
-//! the first-harmonic fits do not see.
+//! `zmp_i = sum_j a_ij(op) op_j`, and a small motion `dx_k` moves it by the derivative of that
+//! static map, `a_ik(op) + sum_j a_ij op_j da_ij,k` (with `da_ij,k` the slope of channel `ij`
+//! along `k`; with one slope for every channel, `a_ik(op) + da_k (a op)_i`), not by
+//! `a_ik(op)` alone (the scaled coefficients alone would give a small-signal gain that
+//! disagrees with the slope of the static ZMP, and no cross-axis term where the other axis's
+//! CoM sits away from the origin). `b` enters only with the acceleration, which is zero at
+//! rest: its small-signal gain is `b_ij(op)`. What the linearisation leaves out are the second
+//! harmonic and the mean shift of `da (dx)^2`, which the first-harmonic fits do not see.
 
 use crate::effect::{BuildContext, Effect, EffectInfo, ParamSpec, Site};
 use num_complex::Complex64;
@@ -56,8 +63,9 @@ pub static PARAMS: [ParamSpec; 4] = [
 pub static INFO: EffectInfo = EffectInfo {
     kind: crate::EffectKind::OperatingPointDependence,
     title: "operating-point dependence",
-    doc: "a_ij and b_ij scale linearly with the CoM position (zmp = a(x_c) x_c - b(x_c) x_c'').",
-    site: Site::Pendulum,
+    doc: "a_ij and b_ij scale linearly with the CoM position (zmp = a(x_c) x_c - b(x_c) x_c''); \
+          a flat table for every channel, sub-tables G11..G22 per channel.",
+    site: Site::PendulumScale,
     core: false,
     linear: true,
     params: &PARAMS,

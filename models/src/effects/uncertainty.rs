@@ -42,7 +42,8 @@ pub static PARAMS: [ParamSpec; 5] = [
         4294967295.0,
         0.0,
         "0: constant Delta = delta; n > 0: random stable Delta drawn from seed n",
-    ),
+    )
+    .whole(),
 ];
 
 /// The channel uncertainty's entry in the effect registry.
@@ -54,16 +55,9 @@ pub static INFO: EffectInfo = EffectInfo {
     core: false,
     linear: true,
     params: &PARAMS,
-    validate: Some(validate),
+    validate: None,
     build,
 };
-
-fn validate(v: &[f64]) -> Result<(), (usize, String)> {
-    if v[4].fract() != 0.0 {
-        return Err((4, format!("delta_seed = {} must be a whole number", v[4])));
-    }
-    Ok(())
-}
 
 /// `W(s) = k (s + z)/(s + p)`.
 pub fn weight(k: f64, z: f64, p: f64) -> TransferFunction {

@@ -9,27 +9,29 @@
 //! first-harmonic noise standard deviations ([`crate::response::record_noise_std`]) and by at
 //! least [`VISIBLE_RELATIVE`] of that channel's first harmonic without the effect, compared
 //! with the same draw without any hidden effect: linear effects from the small-signal
-//! response, `sensor_drift` from its exact first-harmonic projection `2|rate|/ω`, nonlinear
+//! response, `sensor_drift` and `sensor_rezero` from the drift's exact first-harmonic
+//! projection `2|rate|/ω` (each record's own rate for `sensor_rezero`), nonlinear
 //! ones by noise-free simulation of each (axis, amplitude, frequency) at the first operating
 //! point over the design's transient and one period (a change counts for every operating
 //! point: the mechanics do not depend on it). An effect outside the catalogue must also be
 //! visible, by the same rule, against its catalogue form with the same parameters
 //! (`EffectParams::catalogue_counterparts`: the linear transmission of a cubic stiffness, the
 //! Coulomb friction at a Stribeck friction's kinetic and at its static level, the first of two
-//! modes): what puts it outside the catalogue must show. The size quantile is drawn U(0, 1)
+//! modes): what puts it outside the catalogue must show; likewise a sensor re-zeroed at every
+//! record against one rate for every record, the records' mean. The size quantile is drawn U(0, 1)
 //! and, while the effect is invisible, redrawn U(q, 1) (8 draws at most, the last at q = 1);
 //! an effect still invisible is kept and reported with `visible = false`.
 
 use crate::design::Design;
-use crate::integrate::simulate_records;
-use crate::response::{record_noise_std, small_signal_response, steady_harmonic, Complex};
-use crate::robot::{AxisMechanics, Effect, HiddenEffect, Noise, Pendulum, Robot, Sensor, Servo};
+use crate::robot::{
+    AxisMechanics, CrossCoupling, Effect, FlexibleMode, Friction, HiddenEffect, Noise,
+    OpDependence, OpPerChannel, Pendulum, Rezero, Robot, Sensor, Servo, Transmission,
+};
 use crate::scenario::Scenario;
+pub use crate::visibility::Visibility;
+use crate::visibility::{visibility, Harmonics};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-mod effect_params;
-use effect_params::draw_effect;
 
 /// First-harmonic change, in noise standard deviations, for a record to count as changed.
 pub const VISIBLE_SIGMAS: f64 = 6.0;
@@ -100,7 +102,7 @@ pub fn draw_with(seed: u64, scenario: &Scenario, design: &Design, options: &Draw
     let mut rng = stream(seed, 0);
     let base = draw_base(&mut rng, design);
     let mut robot = base.clone();
-    let mut probe_cache = None;
+    let mut probe_cache: Option<Harmonics> = None;
     for effect in scenario.effects() {
         let mut rng = stream(seed, 100 + effect as u64);
         let mut q_lo = 0.0;
@@ -135,7 +137,7 @@ pub fn draw_with(seed: u64, scenario: &Scenario, design: &Design, options: &Draw
         params.install(&mut robot);
         robot.hidden.push(HiddenEffect {
             effect,
-            name: effect.name().into(),
+            name: effect.catalogue_name().into(),
             in_catalogue: effect.in_catalogue(),
             nearest_catalogue: effect.nearest_catalogue().map(|e| e.name().into()),
             visible,
@@ -238,139 +240,301 @@ fn draw_base(rng: &mut ChaCha8Rng, design: &Design) -> Robot {
         axes,
         cross_coupling: None,
         op_dependence: None,
+        op_per_channel: None,
         sensor: Sensor {
             lowpass_cutoff: None,
             drift_rate: [0.0; 2],
+            rezero: None,
             noise,
         },
         hidden: Vec::new(),
     }
 }
 
-/// How visible an effect is on a design.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Visibility {
-    /// The verdict of the rule in the module docs.
-    pub visible: bool,
-    /// Largest change of a record's first harmonic, in noise standard deviations.
-    pub max_sigmas: f64,
-    /// Largest change of a record's first harmonic relative to it without the effect.
-    pub max_relative: f64,
-    /// Records that changed visibly.
-    pub records: usize,
+/// The parameters one effect sets, drawn against the base robot.
+#[derive(Clone, Debug)]
+enum EffectParams {
+    Delay([f64; 2]),
+    Transmission([Transmission; 2]),
+    Friction([Friction; 2]),
+    AccelLimit([f64; 2]),
+    VelocityLimit([f64; 2]),
+    Modes([Vec<FlexibleMode>; 2]),
+    Lowpass([f64; 2]),
+    OpDependence(OpDependence),
+    OpPerChannel(OpPerChannel),
+    Drift([f64; 2]),
+    /// The mean rates and the record-to-record part.
+    Rezero([f64; 2], Rezero),
+    Coupling(CrossCoupling),
 }
 
-impl Visibility {
-    /// Adds one record's first harmonics (per output) with and without the effect; the
-    /// record counts `weight` times.
-    fn add(&mut self, without: [Complex; 2], with: [Complex; 2], sigma: f64, weight: usize) {
-        let mut counts = false;
-        for i in 0..2 {
-            let d = (with[i] - without[i]).abs();
-            let sig = d / sigma.max(1e-300);
-            let rel = d / without[i].abs().max(1e-300);
-            self.max_sigmas = self.max_sigmas.max(sig);
-            self.max_relative = self.max_relative.max(rel);
-            counts |= sig >= VISIBLE_SIGMAS && rel >= VISIBLE_RELATIVE;
+impl EffectParams {
+    /// For an effect outside the catalogue, the catalogue forms of the same element with the
+    /// same parameters but without what puts it outside: a cubic stiffness's linear
+    /// transmission, a Stribeck friction's Coulomb friction at its kinetic and at its static
+    /// level, a second structural mode's first mode alone. What makes the effect outside the
+    /// catalogue is visible when it is visible against each of them. Empty for catalogue
+    /// effects and for the rate-limited servo (its nearest catalogue effect, the acceleration
+    /// limit, has no parameter in common with it). A sensor re-zeroed at every record is held
+    /// to the same rule against one rate for every record, its mean: what makes it a form of
+    /// its own, the rates that change from record to record, must show.
+    fn catalogue_counterparts(&self, effect: Effect) -> Vec<EffectParams> {
+        match (effect, self) {
+            (Effect::CubicStiffness, EffectParams::Transmission(t)) => {
+                let mut linear = t.clone();
+                linear
+                    .iter_mut()
+                    .for_each(|t| t.hardening_deflection = None);
+                vec![EffectParams::Transmission(linear)]
+            }
+            (Effect::StribeckFriction, EffectParams::Friction(f)) => {
+                let coulomb = |level: fn(&Friction) -> f64| {
+                    EffectParams::Friction(f.clone().map(|f| Friction {
+                        kinetic: level(&f),
+                        static_level: level(&f),
+                        stribeck_velocity: None,
+                    }))
+                };
+                vec![coulomb(|f| f.kinetic), coulomb(|f| f.static_level)]
+            }
+            (Effect::SensorRezero, EffectParams::Rezero(mean, _)) => {
+                vec![EffectParams::Drift(*mean)]
+            }
+            (Effect::SecondStructuralMode, EffectParams::Modes(m)) => {
+                vec![EffectParams::Modes(m.clone().map(|mut m| {
+                    m.truncate(1);
+                    m
+                }))]
+            }
+            _ => Vec::new(),
         }
-        if counts {
-            self.records += weight;
+    }
+
+    fn install(&self, r: &mut Robot) {
+        match self {
+            EffectParams::Delay(d) => (0..2).for_each(|k| r.axes[k].command_delay = d[k]),
+            EffectParams::Transmission(t) => {
+                (0..2).for_each(|k| r.axes[k].transmission = Some(t[k].clone()))
+            }
+            EffectParams::Friction(f) => {
+                (0..2).for_each(|k| r.axes[k].friction = Some(f[k].clone()))
+            }
+            EffectParams::AccelLimit(l) => (0..2).for_each(|k| r.axes[k].servo.accel_limit = l[k]),
+            EffectParams::VelocityLimit(l) => {
+                (0..2).for_each(|k| r.axes[k].servo.velocity_limit = Some(l[k]))
+            }
+            EffectParams::Modes(m) => (0..2).for_each(|k| r.axes[k].modes = m[k].clone()),
+            EffectParams::Lowpass(c) => r.sensor.lowpass_cutoff = Some(*c),
+            EffectParams::OpDependence(o) => r.op_dependence = Some(o.clone()),
+            EffectParams::OpPerChannel(o) => r.op_per_channel = Some(o.clone()),
+            EffectParams::Drift(d) => r.sensor.drift_rate = *d,
+            EffectParams::Rezero(mean, z) => {
+                r.sensor.drift_rate = *mean;
+                r.sensor.rezero = Some(z.clone());
+            }
+            EffectParams::Coupling(c) => r.cross_coupling = Some(c.clone()),
         }
-        self.visible = self.records >= VISIBLE_MIN_RECORDS;
     }
 }
 
-/// The probe design of the nonlinear visibility test: the first operating point, noise-free,
-/// the design's transient and one steady period.
-fn probe_design(design: &Design) -> Design {
-    Design {
-        operating_points: vec![design.operating_points[0]],
-        periods: 1.0,
-        min_steady_s: 0.0,
-        quantisation: 0.0,
-        noise: Some(Noise::zero()),
-        zmp_noise_std: None,
-        ..design.clone()
+/// A value for one axis and a related value for the other, randomly which is which.
+fn pair_swapped(rng: &mut impl Rng, first: f64, second: f64) -> [f64; 2] {
+    if rng.gen_bool(0.5) {
+        [first, second]
+    } else {
+        [second, first]
     }
 }
 
-fn probe_harmonics(robot: &Robot, probe: &Design) -> Vec<[Complex; 2]> {
-    let specs = probe.records();
-    simulate_records(robot, probe, &specs)
-        .iter()
-        .map(|r| {
-            let z = &r.truth.zmp_noise_free;
-            [
-                steady_harmonic(&r.meta, &r.t, &z[0]),
-                steady_harmonic(&r.meta, &r.t, &z[1]),
-            ]
-        })
-        .collect()
-}
-
-/// How visible `effect` (installed in `with`) is against `base` on `design`. `probe_cache`
-/// keeps the base robot's probe harmonics between calls (same base, same design).
-pub(crate) fn visibility(
+fn draw_effect(
     effect: Effect,
     base: &Robot,
-    with: &Robot,
     design: &Design,
-    probe_cache: &mut Option<Vec<[Complex; 2]>>,
-) -> Visibility {
-    let mut vis = Visibility::default();
-    let records = design.records();
+    options: &DrawOptions,
+    rng: &mut ChaCha8Rng,
+    q: f64,
+) -> EffectParams {
+    let servo = |k: usize| &base.axes[k].servo;
     match effect {
-        Effect::Backlash
-        | Effect::CoulombFriction
-        | Effect::StribeckFriction
-        | Effect::AccelerationSaturation
-        | Effect::RateLimitedServo
-        | Effect::CubicStiffness => {
-            let probe = probe_design(design);
-            let without = probe_cache
-                .get_or_insert_with(|| probe_harmonics(base, &probe))
-                .clone();
-            let changed = probe_harmonics(with, &probe);
-            let n_ops = design.operating_points.len();
-            for k in 0..probe.records().len() {
-                // Noise of the matching design record (the same at every operating point).
-                let sigma = record_noise_std(base, design, &records[k]);
-                vis.add(without[k], changed[k], sigma, n_ops);
+        Effect::TimeDelay => {
+            let tau = log_at(0.010, 0.150, q);
+            let other = if rng.gen_bool(0.6) {
+                tau
+            } else {
+                (tau * rng.gen_range(0.5..1.5)).clamp(0.010, 0.150)
+            };
+            EffectParams::Delay(pair_swapped(rng, tau, other))
+        }
+        Effect::Backlash => {
+            let w = log_at(0.3e-3, 2.5e-3, q);
+            let other = (w * rng.gen_range(0.6..1.4)).clamp(0.3e-3, 2.5e-3);
+            let widths = pair_swapped(rng, w, other);
+            EffectParams::Transmission(widths.map(|play| Transmission {
+                play,
+                omega: rng.gen_range(100.0..250.0),
+                zeta: rng.gen_range(0.1..0.3),
+                hardening_deflection: None,
+                load_drag_time: Some(rng.gen_range(0.02..0.1)),
+            }))
+        }
+        Effect::CoulombFriction | Effect::StribeckFriction => {
+            let ratio = log_at(0.02, 0.2, q);
+            EffectParams::Friction([0, 1].map(|k| {
+                let kinetic = servo(k).accel_limit * ratio * rng.gen_range(0.7..1.3);
+                if effect == Effect::CoulombFriction {
+                    Friction {
+                        kinetic,
+                        static_level: kinetic,
+                        stribeck_velocity: None,
+                    }
+                } else {
+                    Friction {
+                        kinetic,
+                        static_level: kinetic * rng.gen_range(1.5..3.0),
+                        stribeck_velocity: Some(log_uniform(rng, 1e-3, 1e-2)),
+                    }
+                }
+            }))
+        }
+        Effect::AccelerationSaturation => {
+            let factor = log_at(0.5, 0.25, q);
+            EffectParams::AccelLimit([0, 1].map(|k| demand(servo(k), design, 2) * factor))
+        }
+        Effect::RateLimitedServo => {
+            let factor = log_at(0.85, 0.4, q);
+            EffectParams::VelocityLimit(
+                [0, 1].map(|k| demand(servo(k), design, 1) * factor * rng.gen_range(0.95..1.05)),
+            )
+        }
+        Effect::StructuralMode | Effect::SecondStructuralMode => {
+            let share = log_at(0.15, 0.6, q);
+            EffectParams::Modes([0, 1].map(|_| {
+                let mass_fraction = (share * rng.gen_range(0.8..1.2)).clamp(0.15, 0.6);
+                if effect == Effect::StructuralMode {
+                    vec![FlexibleMode {
+                        omega: rng.gen_range(10.0..35.0),
+                        zeta: log_uniform(rng, 0.02, 0.12),
+                        mass_fraction,
+                    }]
+                } else {
+                    let w1 = rng.gen_range(10.0..25.0);
+                    vec![
+                        FlexibleMode {
+                            omega: w1,
+                            zeta: log_uniform(rng, 0.02, 0.12),
+                            mass_fraction,
+                        },
+                        FlexibleMode {
+                            omega: w1 * rng.gen_range(1.5..2.5),
+                            zeta: log_uniform(rng, 0.02, 0.12),
+                            mass_fraction: rng.gen_range(0.3..0.6),
+                        },
+                    ]
+                }
+            }))
+        }
+        Effect::CubicStiffness => EffectParams::Transmission([0, 1].map(|k| {
+            let omega = rng.gen_range(20.0..40.0);
+            // The largest acceleration the servo reaches: the hardening acts below the limit.
+            let reached = demand(servo(k), design, 2).min(servo(k).accel_limit);
+            let deflection = reached / (omega * omega);
+            Transmission {
+                play: 0.0,
+                omega,
+                zeta: rng.gen_range(0.05..0.15),
+                hardening_deflection: Some(deflection * log_at(1.0, 0.3, q)),
+                load_drag_time: None,
             }
+        })),
+        Effect::SensorLowpass => {
+            let wc = log_at(150.0, 15.0, q);
+            EffectParams::Lowpass([0, 1].map(|_| wc * rng.gen_range(0.85..1.15)))
+        }
+        Effect::OperatingPointDependence => {
+            let rho = log_at(0.02, 0.2, q);
+            let span = op_span(design);
+            let a_slope = op_slope(rng, rho, span);
+            let b_slope = op_slope(rng, rho, span);
+            EffectParams::OpDependence(OpDependence { a_slope, b_slope })
         }
         Effect::SensorDrift => {
-            for spec in &records {
-                let Some(g) = small_signal_response(base, spec.operating_point, spec.omega) else {
-                    continue;
-                };
-                let j = spec.excited.index();
-                let without = [g[0][j].scale(spec.amplitude), g[1][j].scale(spec.amplitude)];
-                let mut changed = without;
-                for (i, c) in changed.iter_mut().enumerate() {
-                    let d = 2.0 * with.sensor.drift_rate[i].abs() / spec.omega;
-                    *c = *c + Complex::new(d, 0.0);
-                }
-                vis.add(without, changed, record_noise_std(base, design, spec), 1);
-            }
+            let rate = log_at(0.02e-3, 0.5e-3, q);
+            let first = sign(rng) * rate;
+            let second = sign(rng) * rate * rng.gen_range(0.2..1.0);
+            EffectParams::Drift(pair_swapped(rng, first, second))
         }
-        _ => {
-            for spec in &records {
-                let (Some(g0), Some(g1)) = (
-                    small_signal_response(base, spec.operating_point, spec.omega),
-                    small_signal_response(with, spec.operating_point, spec.omega),
-                ) else {
-                    continue;
-                };
-                let j = spec.excited.index();
-                let a = spec.amplitude;
-                vis.add(
-                    [g0[0][j].scale(a), g0[1][j].scale(a)],
-                    [g1[0][j].scale(a), g1[1][j].scale(a)],
-                    record_noise_std(base, design, spec),
-                    1,
-                );
+        Effect::SensorRezero => {
+            let s = log_at(0.02e-3, 0.5e-3, q);
+            let other = s * rng.gen_range(0.2..1.0);
+            let spread = pair_swapped(rng, s, other);
+            let mean = spread.map(|s| sign(rng) * s * rng.gen_range(0.0..0.5));
+            let seed = u64::from(rng.gen::<u32>());
+            EffectParams::Rezero(mean, Rezero { spread, seed })
+        }
+        Effect::OpPerChannel => {
+            let rho = log_at(0.02, 0.2, q);
+            let span = op_span(design);
+            // One or two of the four channels move, each with its own slopes.
+            let mut channels = vec![(0, 0), (0, 1), (1, 0), (1, 1)];
+            let moving = if rng.gen_bool(0.5) { 1 } else { 2 };
+            let mut o = OpPerChannel {
+                a_slope: [[[0.0; 2]; 2]; 2],
+                b_slope: [[[0.0; 2]; 2]; 2],
+            };
+            for _ in 0..moving {
+                let (i, j) = channels.swap_remove(rng.gen_range(0..channels.len()));
+                o.a_slope[i][j] = op_slope(rng, rho, span);
+                o.b_slope[i][j] = op_slope(rng, rho, span);
+            }
+            EffectParams::OpPerChannel(o)
+        }
+        Effect::CrossCoupling => {
+            let drawn = rng.gen_bool(0.5);
+            let pendulum = match options.coupling_form {
+                Some(form) => form == CouplingForm::Pendulum,
+                None => drawn,
+            };
+            if pendulum {
+                let mut term =
+                    |lo: f64, hi: f64| sign(rng) * log_at(lo, hi, q) * rng.gen_range(0.7..1.0);
+                EffectParams::Coupling(CrossCoupling::Pendulum {
+                    da12: term(0.03, 0.25),
+                    da21: term(0.03, 0.25),
+                    db12: term(0.005, 0.05),
+                    db21: term(0.005, 0.05),
+                })
+            } else {
+                let mut kappa = || sign(rng) * log_at(0.05, 0.3, q) * rng.gen_range(0.7..1.0);
+                EffectParams::Coupling(CrossCoupling::Inertial {
+                    kappa_xy: kappa(),
+                    kappa_yx: kappa(),
+                })
             }
         }
     }
-    vis
+}
+
+/// The largest `|op_k|` of the design's operating points per CoM axis, m.
+fn op_span(design: &Design) -> [f64; 2] {
+    [0, 1].map(|k| {
+        design
+            .operating_points
+            .iter()
+            .map(|op| op[k].abs())
+            .fold(0.0, f64::max)
+    })
+}
+
+/// Slopes along x and y (1/m) whose relative change at the farthest operating point is
+/// `± rho · U(0.5, 1)`, independent signs; 0 along an axis the design does not move.
+fn op_slope(rng: &mut ChaCha8Rng, rho: f64, span: [f64; 2]) -> [f64; 2] {
+    [0, 1].map(|k| {
+        let s = sign(rng) * rho * rng.gen_range(0.5..1.0);
+        if span[k] > 0.0 {
+            s / span[k]
+        } else {
+            0.0
+        }
+    })
 }

@@ -4,8 +4,12 @@ use serde::{Deserialize, Serialize};
 
 /// The hidden physical effects this simulator can add to the seed's model.
 ///
-/// The first nine are the project's catalogue (`zmp-diagnosis/1` effect names); the last four
-/// are deliberately outside it.
+/// The project's catalogue is the first nine (`zmp-diagnosis/1` effect names) and two further
+/// forms of its effects, the last two variants (added last so that every older effect keeps
+/// its random stream, see `draw`): an operating-point dependence with slopes per channel
+/// (`op_per_channel`, a diagnosis names it `operating_point_dependence`) and a sensor
+/// re-zeroed at every record with a drift rate that changes from record to record
+/// (`sensor_rezero`, named `sensor_drift`). The four between are deliberately outside it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Effect {
@@ -35,11 +39,18 @@ pub enum Effect {
     RateLimitedServo,
     /// A compliant transmission with a hardening (cubic) spring (outside).
     CubicStiffness,
+    /// Pendulum gains changing with the CoM position, on some channels only, each with its
+    /// own slopes (`operating_point_dependence` per channel).
+    OpPerChannel,
+    /// A ZMP sensor re-zeroed at every record, drifting at a rate that changes from record
+    /// to record (`sensor_drift` with a rate per record).
+    SensorRezero,
 }
 
 impl Effect {
-    /// The project's catalogue, in the order of `/work/shared/spec/diagnosis-json.md`.
-    pub const CATALOGUE: [Effect; 9] = [
+    /// The project's catalogue, in the order of `/work/shared/spec/diagnosis-json.md`, then
+    /// the two further forms of its effects.
+    pub const CATALOGUE: [Effect; 11] = [
         Effect::TimeDelay,
         Effect::Backlash,
         Effect::CoulombFriction,
@@ -49,6 +60,8 @@ impl Effect {
         Effect::OperatingPointDependence,
         Effect::SensorDrift,
         Effect::CrossCoupling,
+        Effect::OpPerChannel,
+        Effect::SensorRezero,
     ];
     /// The effects outside the catalogue.
     pub const OUTSIDE: [Effect; 4] = [
@@ -79,6 +92,20 @@ impl Effect {
             Effect::StribeckFriction => "stribeck_friction",
             Effect::RateLimitedServo => "rate_limited_servo",
             Effect::CubicStiffness => "cubic_stiffness",
+            Effect::OpPerChannel => "op_per_channel",
+            Effect::SensorRezero => "sensor_rezero",
+        }
+    }
+
+    /// The name a diagnosis restricted to the catalogue gives it when it names it right: the
+    /// catalogue effect's name for a catalogue effect or form (`op_per_channel` →
+    /// `operating_point_dependence`, `sensor_rezero` → `sensor_drift`), the own name for an
+    /// effect outside the catalogue.
+    pub fn catalogue_name(self) -> &'static str {
+        match self {
+            Effect::OpPerChannel => Effect::OperatingPointDependence.name(),
+            Effect::SensorRezero => Effect::SensorDrift.name(),
+            e => e.name(),
         }
     }
 
@@ -115,6 +142,8 @@ impl Effect {
             || pair(CoulombFriction, StribeckFriction)
             || pair(StructuralMode, SecondStructuralMode)
             || pair(Backlash, CubicStiffness)
+            || pair(OperatingPointDependence, OpPerChannel)
+            || pair(SensorDrift, SensorRezero)
     }
 }
 

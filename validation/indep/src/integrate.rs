@@ -33,7 +33,8 @@
 //! above the Nyquist frequency, which point sampling would fold into the band as a scatter of
 //! the first harmonic from period to period (1-2 % in a backlash record at 200 Hz). It has no
 //! phase; its gain `sin(ωΔ/2)/(ωΔ/2)` ([`crate::response::sample_average_gain`]) is
-//! 1 − 2.3e-4 at 15 rad/s and 200 Hz. Then the drift `rate · t`, the noise and the
+//! 1 − 2.3e-4 at 15 rad/s and 200 Hz. Then the drift `rate · t` (the record's own rate for a
+//! sensor re-zeroed at every record, `Sensor::record_drift_rate`), the noise and the
 //! quantisation are added. The references `x_cr`, `y_cr` are written as commanded, exactly.
 
 use crate::design::{Design, RecordSpec};
@@ -368,7 +369,7 @@ fn simulate_one(robot: &Robot, plant: &Plant, design: &Design, spec: &RecordSpec
         design.seed,
         spec.index,
     );
-    let drift = robot.sensor.drift_rate;
+    let drift = robot.sensor.record_drift_rate(spec.index);
     let n = spec.n_samples;
     let mut rec = RecordData {
         meta: spec.clone(),

@@ -11,6 +11,7 @@ mod noise;
 pub mod response;
 pub mod robot;
 pub mod scenario;
+mod visibility;
 pub mod write;
 
 pub use design::{AxisName, Design, ListedRecord, RecordSpec};
@@ -18,7 +19,7 @@ pub use draw::{draw, draw_for_design, draw_with, CouplingForm, DrawOptions, Visi
 pub use integrate::{simulate, simulate_records, try_simulate, RecordData, RecordTruth};
 pub use robot::{
     AxisMechanics, CrossCoupling, Effect, FlexibleMode, Friction, HiddenEffect, Noise,
-    OpDependence, Pendulum, Robot, Sensor, Servo, Transmission,
+    OpDependence, OpPerChannel, Pendulum, Rezero, Robot, Sensor, Servo, Transmission,
 };
 pub use scenario::Scenario;
 pub use write::{write_campaign, write_records, GENERATOR};

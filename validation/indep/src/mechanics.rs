@@ -420,11 +420,16 @@ pub(crate) struct Plant {
     pub b: [[f64; 2]; 2],
     /// `(a_slope, b_slope)` of the operating-point dependence.
     pub op_dep: Option<([f64; 2], [f64; 2])>,
+    /// `(a_slope, b_slope)[i][j]` of the operating-point dependence per channel.
+    pub op_channel: Option<ChannelSlopes>,
     /// Inertial coupling `[kappa_xy, kappa_yx]`.
     pub kappa: Option<[f64; 2]>,
     /// Sensor low-pass cutoffs, rad/s.
     pub lowpass: Option<[f64; 2]>,
 }
+
+/// Slopes per channel `[i][j]` along x and y: of `a`, of `b`.
+pub(crate) type ChannelSlopes = ([[[f64; 2]; 2]; 2], [[[f64; 2]; 2]; 2]);
 
 /// Everything an evaluation of the plant gives besides the derivative.
 #[derive(Clone, Copy, Debug, Default)]
@@ -446,6 +451,10 @@ impl Plant {
             a: p.a,
             b: p.b,
             op_dep: robot.op_dependence.as_ref().map(|o| (o.a_slope, o.b_slope)),
+            op_channel: robot
+                .op_per_channel
+                .as_ref()
+                .map(|o| (o.a_slope, o.b_slope)),
             kappa: match robot.cross_coupling {
                 Some(CrossCoupling::Inertial { kappa_xy, kappa_yx }) => Some([kappa_xy, kappa_yx]),
                 _ => None,
@@ -465,9 +474,20 @@ impl Plant {
             ),
         };
         let mut z = [0.0; 2];
+        let Some((pa, pb)) = &self.op_channel else {
+            for (i, zi) in z.iter_mut().enumerate() {
+                *zi = ga * (self.a[i][0] * xc[0] + self.a[i][1] * xc[1])
+                    - gb * (self.b[i][0] * xdd[0] + self.b[i][1] * xdd[1]);
+            }
+            return z;
+        };
+        // Each channel's own factor on top of the common one.
+        let own = |s: &[f64; 2]| 1.0 + s[0] * xc[0] + s[1] * xc[1];
         for (i, zi) in z.iter_mut().enumerate() {
-            *zi = ga * (self.a[i][0] * xc[0] + self.a[i][1] * xc[1])
-                - gb * (self.b[i][0] * xdd[0] + self.b[i][1] * xdd[1]);
+            for j in 0..2 {
+                *zi += ga * own(&pa[i][j]) * self.a[i][j] * xc[j]
+                    - gb * own(&pb[i][j]) * self.b[i][j] * xdd[j];
+            }
         }
         z
     }

@@ -169,8 +169,11 @@ pub fn small_signal_response(robot: &Robot, op: [f64; 2], omega: f64) -> Option<
             let static_row = plant.a[i][0] * op[0] + plant.a[i][1] * op[1];
             let mut z = Complex::default();
             for (k, xk) in xc.iter().enumerate() {
-                let lin = Complex::new(plant.a[i][k] * ga + static_row * sa[k], 0.0)
-                    - s2.scale(plant.b[i][k] * gb);
+                let (a_lin, b_op) = match &plant.op_channel {
+                    None => (plant.a[i][k] * ga + static_row * sa[k], plant.b[i][k] * gb),
+                    Some(pc) => channel_gains(&plant, pc, op, i, k),
+                };
+                let lin = Complex::new(a_lin, 0.0) - s2.scale(b_op);
                 z = z + lin * *xk;
             }
             if let Some(wc) = plant.lowpass {
@@ -180,6 +183,28 @@ pub fn small_signal_response(robot: &Robot, op: [f64; 2], omega: f64) -> Option<
         }
     }
     Some(g)
+}
+
+/// The small-signal gains `(a, b)` of channel `ik` at `op` with slopes per channel: the
+/// static map `zmp_i = Σ_j g_ij(x) a_ij x_j`, `g_ij = (1 + s·x)(1 + s_ij·x)` (the common and
+/// the channel's own factor), has the slope `a_ik g_ik(op) + Σ_j a_ij op_j ∂g_ij/∂x_k`; `b`
+/// multiplies the acceleration, zero at rest: `b_ik` times its factor at `op`.
+fn channel_gains(
+    plant: &Plant,
+    (pa, pb): &crate::mechanics::ChannelSlopes,
+    op: [f64; 2],
+    i: usize,
+    k: usize,
+) -> (f64, f64) {
+    let (ca, cb) = plant.op_dep.unwrap_or(([0.0; 2], [0.0; 2]));
+    let at = |s: &[f64; 2]| 1.0 + s[0] * op[0] + s[1] * op[1];
+    let g = |j: usize| at(&ca) * at(&pa[i][j]);
+    let dg = |j: usize| ca[k] * at(&pa[i][j]) + at(&ca) * pa[i][j][k];
+    let slope: f64 = (0..2).map(|j| plant.a[i][j] * op[j] * dg(j)).sum();
+    (
+        plant.a[i][k] * g(k) + slope,
+        plant.b[i][k] * at(&cb) * at(&pb[i][k]),
+    )
 }
 
 /// Gain of the sample averaging of the measurement at `omega` (rad/s) and `sample_rate_hz`:

@@ -160,6 +160,47 @@ pub struct OpDependence {
     pub b_slope: [f64; 2],
 }
 
+/// Pendulum gains with slopes of their own per channel (`op_per_channel`): `a_ij(x_c) =
+/// a_ij (1 + a_slope[i][j]·x_c)`, `b_ij(x_c) = b_ij (1 + b_slope[i][j]·x_c)` at the
+/// instantaneous absolute CoM; a channel whose slopes are zero keeps its gains (the foot's
+/// compliance or a load shift that moves one channel's static gain, not the others'). With
+/// [`OpDependence`] too, a channel's factors multiply.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OpPerChannel {
+    /// `a_slope[i][j]`: relative change of `a_ij` per metre of CoM along x and y, 1/m.
+    pub a_slope: [[[f64; 2]; 2]; 2],
+    /// `b_slope[i][j]`: relative change of `b_ij` per metre along x and y, 1/m.
+    pub b_slope: [[[f64; 2]; 2]; 2],
+}
+
+impl OpPerChannel {
+    /// The channels `(i, j)` with a non-zero slope.
+    pub fn moving(&self) -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
+        for i in 0..2 {
+            for j in 0..2 {
+                if self.a_slope[i][j] != [0.0; 2] || self.b_slope[i][j] != [0.0; 2] {
+                    out.push((i, j));
+                }
+            }
+        }
+        out
+    }
+}
+
+/// A ZMP sensor re-zeroed at the start of every record whose drift rate changes from record
+/// to record (`sensor_rezero`, thermal drift that differs each time the sensor is tared):
+/// record `k` drifts on axis `i` at `drift_rate[i] + spread[i] · u`, `u` uniform on
+/// `(−√3, √3)` (unit variance), drawn from ChaCha8 seeded with `seed` on stream `k`, the x
+/// axis's number first, then the y axis's.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Rezero {
+    /// Standard deviation of a record's rate about the sensor's `drift_rate`, per axis, m/s.
+    pub spread: [f64; 2],
+    /// Seed of the records' rates.
+    pub seed: u64,
+}
+
 /// Random measurement noise of the force-sensor ZMP, the same law on both axes, independent
 /// realisations.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -190,11 +231,33 @@ pub struct Sensor {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lowpass_cutoff: Option<[f64; 2]>,
     /// Linear drift of the reading per output axis, m/s, starting from zero at the start of
-    /// each record (`sensor_drift`).
+    /// each record (`sensor_drift`); with `rezero`, the mean of the records' rates.
     #[serde(default)]
     pub drift_rate: [f64; 2],
+    /// A drift rate that changes from record to record (`sensor_rezero`); `None`: one rate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rezero: Option<Rezero>,
     /// Random noise.
     pub noise: Noise,
+}
+
+impl Sensor {
+    /// The drift rate of record `record` per axis, m/s: `drift_rate`, plus with `rezero` the
+    /// record's own part ([`Rezero`]).
+    pub fn record_drift_rate(&self, record: usize) -> [f64; 2] {
+        use rand::{Rng, SeedableRng};
+        let Some(z) = &self.rezero else {
+            return self.drift_rate;
+        };
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(z.seed);
+        rng.set_stream(record as u64);
+        let root3 = 3f64.sqrt();
+        let mut r = self.drift_rate;
+        for (i, ri) in r.iter_mut().enumerate() {
+            *ri += z.spread[i] * rng.gen_range(-root3..root3);
+        }
+        r
+    }
 }
 
 /// One hidden effect of a drawn robot, with what a test needs to score a verdict.
@@ -202,7 +265,8 @@ pub struct Sensor {
 pub struct HiddenEffect {
     /// Which effect.
     pub effect: Effect,
-    /// Its name (`effect.name()`), repeated for readers of the JSON.
+    /// Its catalogue name (`effect.catalogue_name()`: the name a diagnosis gives it, which
+    /// for a catalogue effect's form, `op_per_channel` or `sensor_rezero`, is the effect's).
     pub name: String,
     /// Whether the project's catalogue names it.
     pub in_catalogue: bool,
@@ -247,6 +311,9 @@ pub struct Robot {
     /// Dependence of the pendulum on the CoM position.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub op_dependence: Option<OpDependence>,
+    /// Dependence of the pendulum on the CoM position with slopes per channel.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub op_per_channel: Option<OpPerChannel>,
     /// The ZMP sensor.
     pub sensor: Sensor,
     /// The hidden effects (what the seed's model lacks).
@@ -280,9 +347,11 @@ impl Robot {
             axes: [axis.clone(), axis],
             cross_coupling: None,
             op_dependence: None,
+            op_per_channel: None,
             sensor: Sensor {
                 lowpass_cutoff: None,
                 drift_rate: [0.0; 2],
+                rezero: None,
                 noise: Noise {
                     white_std: 5e-4,
                     coloured_std: 0.0,
@@ -311,9 +380,13 @@ impl Robot {
         p
     }
 
-    /// The catalogue names of the hidden effects (in the order they were drawn).
+    /// The catalogue names of the hidden effects (in the order they were drawn; a form of a
+    /// catalogue effect by the effect's name, see [`Effect::catalogue_name`]).
     pub fn hidden_names(&self) -> Vec<&'static str> {
-        self.hidden.iter().map(|h| h.effect.name()).collect()
+        self.hidden
+            .iter()
+            .map(|h| h.effect.catalogue_name())
+            .collect()
     }
 
     /// Whether any hidden effect lies outside the project's catalogue.
@@ -339,6 +412,24 @@ impl Robot {
             for k in 0..2 {
                 finite(op.a_slope[k], &format!("op_dependence.a_slope[{k}]"))?;
                 finite(op.b_slope[k], &format!("op_dependence.b_slope[{k}]"))?;
+            }
+        }
+        if let Some(op) = &self.op_per_channel {
+            for i in 0..2 {
+                for j in 0..2 {
+                    for k in 0..2 {
+                        let at = format!("[{i}][{j}][{k}]");
+                        finite(op.a_slope[i][j][k], &format!("op_per_channel.a_slope{at}"))?;
+                        finite(op.b_slope[i][j][k], &format!("op_per_channel.b_slope{at}"))?;
+                    }
+                }
+            }
+        }
+        if let Some(z) = &self.sensor.rezero {
+            for (i, v) in z.spread.iter().enumerate() {
+                if !(v.is_finite() && *v >= 0.0) {
+                    return Err(format!("sensor.rezero.spread[{i}] must be >= 0, got {v}"));
+                }
             }
         }
         if let Some(c) = self.sensor.lowpass_cutoff {

@@ -108,7 +108,8 @@ fn every_effect_draws_a_valid_visible_robot_within_its_ranges() {
         };
         let r = draw(4, &scenario);
         r.validate().unwrap();
-        assert_eq!(r.hidden_names(), [effect.name()]);
+        assert_eq!(r.hidden_names(), [effect.catalogue_name()]);
+        assert_eq!(r.hidden[0].effect, effect);
         let h = &r.hidden[0];
         assert_eq!(h.in_catalogue, effect.in_catalogue());
         assert_eq!(
@@ -122,7 +123,10 @@ fn every_effect_draws_a_valid_visible_robot_within_its_ranges() {
         );
         assert_eq!(r.has_outside_effect(), !effect.in_catalogue());
         match effect {
-            Effect::CubicStiffness | Effect::StribeckFriction | Effect::SecondStructuralMode => {
+            Effect::CubicStiffness
+            | Effect::StribeckFriction
+            | Effect::SecondStructuralMode
+            | Effect::SensorRezero => {
                 assert!(
                     h.records_visible_beyond_catalogue.unwrap() >= 3,
                     "{effect}: not visible against its catalogue form: {h:?}"
@@ -198,6 +202,26 @@ fn every_effect_draws_a_valid_visible_robot_within_its_ranges() {
                     assert!(within((o.b_slope[k] * span).abs(), 0.01, 0.2));
                 }
             }
+            Effect::SensorRezero => {
+                let z = r.sensor.rezero.as_ref().unwrap();
+                assert!(
+                    z.spread.iter().all(|v| *v <= 0.5e-3) && z.spread.iter().any(|v| *v >= 0.02e-3)
+                );
+                for k in 0..2 {
+                    assert!(r.sensor.drift_rate[k].abs() <= 0.5 * z.spread[k]);
+                }
+            }
+            Effect::OpPerChannel => {
+                let o = r.op_per_channel.as_ref().unwrap();
+                let moving = o.moving();
+                assert!((1..=2).contains(&moving.len()), "{moving:?}");
+                for (i, j) in moving {
+                    for (k, span) in [0.03, 0.02].into_iter().enumerate() {
+                        assert!(within((o.a_slope[i][j][k] * span).abs(), 0.01, 0.2));
+                        assert!(within((o.b_slope[i][j][k] * span).abs(), 0.01, 0.2));
+                    }
+                }
+            }
             Effect::CrossCoupling => match r.cross_coupling.as_ref().unwrap() {
                 CrossCoupling::Pendulum {
                     da12,
@@ -244,6 +268,10 @@ fn scenario_strings_parse_and_bad_ones_are_named() {
         "single:backlash",
         "pair:time_delay,sensor_drift",
         "outside:cubic_stiffness,time_delay",
+        "single:op_per_channel",
+        "single:sensor_rezero",
+        "pair:time_delay,backlash",
+        "pair:coulomb_friction,sensor_lowpass",
     ] {
         let s: Scenario = ok.parse().unwrap();
         assert_eq!(s.to_string(), ok);
@@ -266,6 +294,14 @@ fn scenario_strings_parse_and_bad_ones_are_named() {
             "must be a catalogue effect",
         ),
         ("quad:a,b", "unknown scenario kind"),
+        (
+            "pair:operating_point_dependence,op_per_channel",
+            "cannot be drawn together",
+        ),
+        (
+            "pair:sensor_rezero,sensor_drift",
+            "cannot be drawn together",
+        ),
         ("everything", "unknown scenario"),
     ] {
         let err = bad.parse::<Scenario>().unwrap_err();

@@ -9,9 +9,22 @@ use std::path::{Path, PathBuf};
 pub const RECORD: &str = "validation/suites/held-out-ranges.csv";
 
 /// The columns of the record, in order.
-pub const COLUMNS: [&str; 13] = [
-    "range", "date", "code", "singles", "carried", "pairs", "triples", "clean", "outside",
-    "closed", "false", "minutes", "note",
+pub const COLUMNS: [&str; 15] = [
+    "range",
+    "date",
+    "code",
+    "singles",
+    "carried",
+    "pairs",
+    "triples",
+    "clean",
+    "outside",
+    "closed",
+    "false",
+    "ambiguous",
+    "words",
+    "minutes",
+    "note",
 ];
 
 /// A count `right / total`.
@@ -36,6 +49,12 @@ pub struct RangeRow {
     pub closed: Count,
     /// In-catalogue draws with a false effect (a count of failures, not of successes).
     pub false_effects: Count,
+    /// In-catalogue draws ending `ambiguous` (a count of such ends; blank before the
+    /// diagnosis could end so).
+    pub ambiguous: Count,
+    /// Outside draws whose residual was described: described right (blank before the
+    /// diagnosis described it).
+    pub words: Count,
     /// Wall time of the run, minutes.
     pub minutes: Option<f64>,
     pub note: String,
@@ -106,16 +125,18 @@ pub fn parse(text: &str) -> Result<Vec<RangeRow>, String> {
             outside: c(8)?,
             closed: c(9)?,
             false_effects: c(10)?,
-            minutes: if f[11].is_empty() {
+            ambiguous: c(11)?,
+            words: c(12)?,
+            minutes: if f[13].is_empty() {
                 None
             } else {
                 Some(
-                    f[11]
+                    f[13]
                         .parse()
-                        .map_err(|_| format!("{RECORD}:{line}: column `minutes`: {:?}", f[11]))?,
+                        .map_err(|_| format!("{RECORD}:{line}: column `minutes`: {:?}", f[13]))?,
                 )
             },
-            note: f[12].to_string(),
+            note: f[14].to_string(),
         });
     }
     Ok(rows)
@@ -135,6 +156,8 @@ pub fn line(row: &RangeRow) -> String {
         fmt_count(row.outside),
         fmt_count(row.closed),
         fmt_count(row.false_effects),
+        fmt_count(row.ambiguous),
+        fmt_count(row.words),
         row.minutes.map(|m| format!("{m:.1}")).unwrap_or_default(),
         row.note.replace(',', ";"),
     ]
@@ -173,12 +196,13 @@ pub fn render(rows: &[RangeRow]) -> String {
     rows.sort_by_key(|r| std::cmp::Reverse(r.range));
     let mut t = String::from(
         "| range | date | code | singles named | carried | pairs found | triples | clean | \
-         outside unexplained | closed within 2x | false effect | minutes | note |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+         outside unexplained | closed within 2x | false effect | ambiguous | words right | \
+         minutes | note |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         t.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             r.range,
             r.date,
             if r.code.is_empty() {
@@ -194,6 +218,8 @@ pub fn render(rows: &[RangeRow]) -> String {
             rate(r.outside),
             fmt_count(r.closed),
             fmt_count(r.false_effects),
+            fmt_count(r.ambiguous),
+            rate(r.words),
             r.minutes.map(|m| format!("{m:.1}")).unwrap_or_default(),
             r.note,
         ));
@@ -246,12 +272,12 @@ mod tests {
     #[test]
     fn a_line_reads_back_and_bad_counts_name_line_and_column() {
         let header = COLUMNS.join(",");
-        let text = format!("# c\n{header}\n1250000,2026-11-29,8ea5e78,21/21,6/6,8/12,2/3,10/10,5/8,52/52,5/52,23.0,\n");
+        let text = format!("# c\n{header}\n1250000,2026-11-29,8ea5e78,21/21,6/6,8/12,2/3,10/10,5/8,52/52,5/52,,,23.0,\n");
         let rows = parse(&text).unwrap();
         assert_eq!(rows.len(), 1);
         assert_eq!(rows[0].pairs, Some((8, 12)));
         assert_eq!(line(&rows[0]), text.lines().nth(2).unwrap());
-        let bad = format!("{header}\n1,d,c,9/8,,,,,,,,,\n");
+        let bad = format!("{header}\n1,d,c,9/8,,,,,,,,,,,\n");
         let e = parse(&bad).unwrap_err();
         assert!(e.contains(":2:") && e.contains("`singles`"), "{e}");
     }

@@ -4,7 +4,9 @@
 //! what each is expected to cost, and turns the units' outcomes back into the table, the report
 //! and the JSON.
 
-use crate::indep::{markdown, run_case, scores, suite, Case, Class, Outcome, DRAW_TIME_LIMIT};
+use crate::indep::{
+    markdown, run_case, scores, suite, Case, Composition, Outcome, DRAW_TIME_LIMIT,
+};
 use anyhow::{bail, Context, Result};
 use serde_json::{json, Value};
 use std::fmt;
@@ -47,11 +49,10 @@ impl fmt::Display for Range {
 /// The development range's first seed.
 pub const DEVELOPMENT_FIRST_SEED: u64 = 1;
 
-/// Draws of one range from `first_seed`: every single effect 3 times, 12 pairs, 3 triples,
-/// 10 clean robots, every outside effect twice (60 draws; the ranges of
-/// `tests/blind_independent.rs`).
+/// Draws of one range from `first_seed`: the 300-draw composition of the ranges of
+/// `tests/blind_independent.rs` ([`Composition::RANGE`]).
 pub fn standard_range(first_seed: u64) -> Vec<Case> {
-    suite(first_seed, 3, 12, 3, 10, 2)
+    suite(first_seed, &Composition::RANGE)
 }
 
 /// Seeds of the CI subset, from the development range: draws that finish in seconds on one
@@ -107,19 +108,6 @@ pub fn range_cases(range: Range, first_seed: Option<u64>) -> Result<Vec<Case>> {
     })
 }
 
-/// Expected cost of a draw on one thread (s): the order of the development range's measured
-/// unit times by kind (bench/README.md). Only the ratios matter (the partition).
-pub fn expected_cost(c: &Case) -> f64 {
-    match &c.class {
-        Class::Clean => 3.0,
-        Class::Single(e) if crate::indep::IN_STRUCTURE.contains(&e.as_str()) => 5.0,
-        Class::Single(_) => 20.0,
-        Class::Pair => 40.0,
-        Class::Triple => 80.0,
-        Class::Outside(_) => 60.0,
-    }
-}
-
 /// The unit id of a draw.
 pub fn unit_id(c: &Case) -> String {
     format!("draw-{}", c.seed)
@@ -130,7 +118,7 @@ pub fn job(range: Range, first_seed: Option<u64>) -> Result<(Job, Vec<Case>)> {
     let cases = range_cases(range, first_seed)?;
     let units = cases
         .iter()
-        .map(|c| UnitSpec::new(unit_id(c), expected_cost(c)))
+        .map(|c| UnitSpec::new(unit_id(c), c.expected_cost()))
         .collect();
     let params = json!({
         "range": range.to_string(),

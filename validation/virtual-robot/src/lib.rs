@@ -2,6 +2,10 @@
 //! other tool uses) and returns it in the `zmp-campaign/1` form, with ZMP sensor noise and
 //! quantisation. Deterministic for a seed: record `k` draws its noise from `(seed, k)` alone, so
 //! records can be simulated in parallel and the result does not depend on the thread count.
+//! The plant runs record `k` as record `k` ([`Plant::set_record`]): a ZMP sensor re-zeroed at
+//! every record drifts at that record's rate, drawn from the model's `sensor_drift.rate_seed`
+//! and `k` (a normal law of mean `rate` and standard deviation `rate_spread`; see
+//! `zmp_models::effects::sensor_drift`).
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -42,6 +46,7 @@ pub fn simulate_record(
     meta: RecordMeta,
 ) -> Result<Record, zmp_models::ModelError> {
     let mut plant = Plant::new(spec, design.internal_step)?;
+    plant.set_record(index as u64);
     let h = design.internal_step;
     let dt = 1.0 / design.sample_rate_hz;
     let sub = (dt / h).round() as usize;

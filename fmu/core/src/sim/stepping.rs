@@ -357,6 +357,60 @@ mod tests {
         assert!(moved > 0.05, "da_dx changed zmp_x by only {moved:.2e}");
     }
 
+    /// A per-channel operating-point dependence and a drift whose rate changes from record
+    /// to record are FMU parameters like every other: `operating_point_dependence.G12.da_dx`
+    /// (a channel's own slope) moves the outputs as the in-process plant's does, and the
+    /// drift's seed takes whole numbers only. An FMU runs record 0.
+    #[test]
+    fn per_channel_slopes_and_record_drift_are_fmu_parameters() {
+        let text = format!(
+            "{PAPER}\n[operating_point_dependence.G12]\nda_dy = 4.0\n\
+             [sensor_drift]\nrate = 1e-4\nrate_spread = 2e-4\nrate_seed = 3\n"
+        );
+        let spec = ModelSpec::parse(&text, "pc.toml").unwrap();
+        let op = [0.02, 0.05];
+        let run = |slope: f64| {
+            let mut s = Slave::from_spec(Kind::Plant, spec.clone()).unwrap();
+            let (x, y) = (vr(&s, "x_cr"), vr(&s, "y_cr"));
+            let p = vr(&s, "operating_point_dependence.G12.da_dy");
+            s.set_real(&[x, y, p], &[op[0], op[1], slope]).unwrap();
+            let seed = vr(&s, "sensor_drift.x.rate_seed");
+            let e = s.set_real(&[seed], &[2.5]).unwrap_err();
+            assert!(e.contains("whole number"), "{e}");
+            s.initialize().unwrap();
+            let mut zmp = Vec::new();
+            for k in 0..300 {
+                let u = [op[0], op[1] + 0.004 * (3e-3 * k as f64).sin()];
+                s.set_real(&[x, y], &u).unwrap();
+                s.do_step(k as f64 * 1e-3, 1e-3).unwrap();
+                let mut o = [0.0; 2];
+                s.get_real(&[vr(&s, "zmp_x"), vr(&s, "zmp_y")], &mut o)
+                    .unwrap();
+                zmp.push(o);
+            }
+            zmp
+        };
+        let fmu = run(4.0);
+        let mut plant = Plant::new(&spec, 1e-3).unwrap();
+        plant.set_record(0);
+        plant.set_operating_point(op);
+        plant.reset(op);
+        for (k, got) in fmu.iter().enumerate() {
+            let u = [op[0], op[1] + 0.004 * (3e-3 * k as f64).sin()];
+            let want = plant.advance(u, 1).zmp;
+            for i in 0..2 {
+                assert!(
+                    (got[i] - want[i]).abs() < 1e-15,
+                    "step {k}: {got:?} vs {want:?}"
+                );
+            }
+        }
+        // G12's slope moves zmp_x (a12 op_y da_dy of the static map and more).
+        let flat = run(0.0);
+        let moved = (fmu[299][0] - flat[299][0]).abs();
+        assert!(moved > 1e-4, "G12.da_dy moved zmp_x by only {moved:.2e} m");
+    }
+
     /// Plant: a step of n h equals n steps of h with the same held input.
     #[test]
     fn plant_long_step_equals_sub_steps() {

@@ -220,7 +220,7 @@ fn model_parameters(spec: &ModelSpec) -> impl Iterator<Item = Var> + '_ {
             start: p.value,
             min: p.spec.min,
             max: p.spec.max,
-            whole: p.spec.name == "delta_seed",
+            whole: p.spec.whole,
             role: Role::ModelParam(i),
         }
     })

@@ -152,12 +152,19 @@ pub struct CalibrationOutcome {
 /// What every noise draw of the calibration uses: the designed postures and the seed's two,
 /// held on the twin with the true masses (deterministic: the same on every machine).
 pub struct CalibrationSetup {
+    /// The force plate's and encoders' stated noise each draw samples.
     pub noise: SensorNoise,
+    /// The soles' CAD geometry (left, right).
     pub soles: [SoleCad; 2],
+    /// Our designed postures.
     pub specs: Vec<PostureSpec>,
+    /// Condition number of the designed postures' regression matrix.
     pub condition_number: f64,
+    /// Our postures held on the twin with the true masses.
     pub held: Vec<HeldPosture>,
+    /// The seed's postures held on the twin with the true masses.
     pub seed_held: Vec<HeldPosture>,
+    /// The motor model of eq. 7 (torque constant per motor).
     pub motors: MotorModel,
 }
 
@@ -185,13 +192,19 @@ pub fn calibration_setup(opt: &Options) -> Result<CalibrationSetup, TwinError> {
 /// One noise draw of every calibration: ours (the designed postures) and the seed's four.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DrawSet {
+    /// Our calibration (designed postures, `M_2 = 0`).
     pub ours: ComResult,
+    /// The seed's two postures, sensors' offsets as stated, `M_2 = 0`.
     pub seed: ComResult,
+    /// The seed's two postures, perfectly zeroed sensors, `M_2 = 0`.
     pub zeroed: ComResult,
+    /// Zeroed sensors, `M_2 = + sum K I` (the seed's eq. 7).
     pub eq7_plus: ComResult,
+    /// Zeroed sensors, `M_2 = - sum K I`.
     pub eq7_minus: ComResult,
     /// Our estimate's error mass (kg) and its position in the trunk frame (m).
     pub error_mass_kg: f64,
+    /// Position of the error mass in the trunk frame (m).
     pub error_mass_position: [f64; 3],
 }
 
@@ -465,6 +478,7 @@ pub fn true_robot() -> Variant {
 /// What a model's plan says beside its walks.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PlanFacts {
+    /// Height of the model's CoM above the floor at the plan's start (m).
     pub com_height_m: f64,
     /// The model's CoM minus the real robot's at the plan's start (m).
     pub com_error_m: [f64; 3],

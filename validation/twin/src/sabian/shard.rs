@@ -28,17 +28,26 @@ pub const MODELS: [&str; 5] = ["n", "r", "s", "v", "e"];
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Unit {
     /// Noise draws `start..end` of every calibration.
-    Draws { start: usize, end: usize },
+    Draws {
+        /// First draw.
+        start: usize,
+        /// One past the last draw.
+        end: usize,
+    },
     /// Runs `start..end` of model `model` (index in [`MODELS`]), open loop and with the
     /// control.
     Walk {
+        /// Index of the model in [`MODELS`].
         model: usize,
+        /// First run.
         start: usize,
+        /// One past the last run.
         end: usize,
     },
 }
 
 impl Unit {
+    /// The unit's id in the job folder (`draws-00000-00050`, `walk-r-000-005`).
     pub fn id(self) -> String {
         match self {
             Unit::Draws { start, end } => format!("draws-{start:05}-{end:05}"),
