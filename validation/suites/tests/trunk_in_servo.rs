@@ -12,9 +12,7 @@
 //! saturated records are checked on their own, so the test cannot pass on the many linear
 //! records alone.
 
-use zmp_models::EffectKind;
 use zmp_suites::docs;
-use zmp_suites::indep_loop;
 
 use docs::doc_section;
 use num_complex::Complex64;
@@ -184,177 +182,10 @@ fn a_force_limited_servo_driving_a_flexible_trunk_matches_the_independent_robot(
     doc_section("docs/src/effect-laws.md", "trunk-in-servo", &summary);
 }
 
-/// The loop on development seeds 23 and 14 (a trunk mode on each plane, the limit acting on
-/// the fast, large records). On seed 23 (12.5 and 27.2 rad/s) its rounds name the x mode but,
-/// stepped as a filter, it stayed at 24.7x the noise floor. On seed 14 (30.3 and 24.8 rad/s,
-/// damping 0.07) the filter fit ran to its damping bound (0.001) with the y link at 19 rad/s
-/// and a tenth of the mass, and the law refitted from those values stayed there (the loop ended
-/// unexplained at 1.56x); the law is now also fitted from typical links
-/// (`candidates::trunk_law_starts`). In both the loop tries the modes inside the servo's loop,
-/// every parameter refitted, keeps them only because they fit better, and diagnoses again. It
-/// must end within 2x the floor with its modes inside the servo, and seed 14, whose filter was
-/// already close, explained. Thresholds fixed before the runs (seed 23: a first version, with
-/// no round after the law, ended at 2.13x, the y mode unnamed; seed 14: the suite's closure
-/// rule, 2x and explained, against 1.11x measured when the starts were added). Since the mode
-/// candidate is itself fitted inside the servo when that fits better (`engine::score_candidate`,
-/// held-out draw 1080004 below), a mode can enter the model inside the servo directly
-/// (`+structural_mode`) instead of by the loop's `trunk-in-servo` version: the version that
-/// first puts a link inside the servo is judged, whichever it is.
-#[test]
-#[ignore = "long: a loop on one draw of the independent simulator (minutes); `cargo xtask ci --long` runs it"]
-fn the_loop_moves_a_mode_the_filter_cannot_explain_inside_the_servo() {
-    let mut summary = String::new();
-    for seed in [23, 14] {
-        let r = indep_loop::loop_on(seed, SCENARIO);
-        let changes: Vec<&str> = r.versions.iter().map(|(_, a)| a.change.as_str()).collect();
-        eprintln!(
-            "seed {seed}: versions {changes:?}; found {:?}; {:.2}x the floor at the end",
-            r.found,
-            r.final_error / r.noise_floor
-        );
-        let first = &r
-            .versions
-            .iter()
-            .find(|(_, a)| {
-                trunks(&a.spec)
-                    .iter()
-                    .any(|e| e.value("in_servo") == Some(1.0))
-            })
-            .unwrap_or_else(|| panic!("seed {seed}: no link inside the servo: {changes:?}"))
-            .1;
-        if seed == 23 {
-            assert!(
-                first.error_before > 3.0 * r.noise_floor,
-                "the filter law was already close: {:.2}x the floor",
-                first.error_before / r.noise_floor
-            );
-            assert!(
-                first.error_after < 0.5 * first.error_before,
-                "the law removed little: {:.4} -> {:.4}",
-                first.error_before,
-                first.error_after
-            );
-        } else {
-            assert!(
-                r.explained,
-                "seed {seed}: unexplained at {:.2}x the floor",
-                r.final_error / r.noise_floor
-            );
-        }
-        let trunks = trunks(&r.final_model);
-        assert!(
-            !trunks.is_empty() && !r.final_model.has(EffectKind::StructuralMode),
-            "seed {seed}: {}",
-            r.final_model.to_toml()
-        );
-        assert!(
-            trunks.iter().all(|e| e.value("in_servo") == Some(1.0)),
-            "seed {seed}: {}",
-            r.final_model.to_toml()
-        );
-        assert!(
-            r.final_error < 2.0 * r.noise_floor,
-            "seed {seed}: after the law: {:.2}x the floor",
-            r.final_error / r.noise_floor
-        );
-        summary.push_str(&format!(
-            "- development seed {seed}: versions {}; the version that put a link inside the \
-             servo ({}) took the error from {:.2}x the noise floor to {:.2}x; at the end {:.2}x \
-             ({}), effects found: {}.\n",
-            changes.join(", "),
-            first.change,
-            first.error_before / r.noise_floor,
-            first.error_after / r.noise_floor,
-            r.final_error / r.noise_floor,
-            if r.explained {
-                "explained"
-            } else {
-                "unexplained"
-            },
-            r.found.join(", ")
-        ));
-    }
-    doc_section("docs/src/effect-laws.md", "trunk-in-servo-loop", &summary);
-}
-
-/// Seed 1030030 of the spent held-out range: a mode on each trunk plane (12.1 and 18.6 rad/s)
-/// and an 18 ms delay. The loop named both modes as filters and the limit, and ended at 0.90x
-/// the noise floor but unexplained: the fastest 8 mm records' cells 4.7x their floor, the
-/// delay absorbed into a slower servo (23 rad/s against the drawn 33). Inside the servo, with
-/// the links' values alone refitted from each start, the law stayed above the filter
-/// (chi-square 16.7 against 1.9 per component): the force limit acts on another force under
-/// the new law and its value was not refitted. With it refitted the law is 1.4 per component,
-/// no cell significant, at 1.13x the floor; the error had to fall too, so it was not taken.
-/// It is now refitted from every start, and a law that explains the data where the filter
-/// does not is taken. Since the loop ends with the refit from typical values
-/// (`iterate::typical`), the filter law refitted from the seed's servo and typical links
-/// explains this draw at 0.84x, lower than the law inside the servo, which is then tried and
-/// not taken: either route must end explained with both planes' links. Thresholds are the
-/// suite's closure rule (explained, within 2x).
-#[test]
-#[ignore = "long: a loop on one draw of the independent simulator (minutes); `cargo xtask ci --long` runs it"]
-fn a_mode_the_filter_fit_left_unexplained_ends_explained_with_both_links() {
-    let r = indep_loop::loop_on(1_030_030, "pair:structural_mode,time_delay");
-    let changes: Vec<&str> = r.versions.iter().map(|(_, a)| a.change.as_str()).collect();
-    use zmp_diagnose::iterate::{TRUNK_IN_SERVO, TYPICAL_REFIT};
-    assert!(
-        changes.contains(&TRUNK_IN_SERVO) || changes.contains(&TYPICAL_REFIT),
-        "versions {changes:?}"
-    );
-    assert!(
-        r.explained,
-        "unexplained at {:.2}x the floor; versions {changes:?}",
-        r.final_error / r.noise_floor
-    );
-    assert!(r.final_error < 2.0 * r.noise_floor);
-    let trunks = trunks(&r.final_model);
-    assert!(trunks.len() == 2, "{}", r.final_model.to_toml());
-}
-
-/// The flexible trunks of a model.
-fn trunks(m: &ModelSpec) -> Vec<&zmp_models::EffectInstance> {
-    m.effects
-        .iter()
-        .filter(|e| e.info.kind == EffectKind::FlexibleTrunk)
-        .collect()
-}
-
 fn range(seed: u64) -> &'static str {
     if seed < 900_000 {
         "development"
     } else {
         "held-out"
     }
-}
-
-/// Seed 1080004 of the spent held-out range (examined after its one run): a mode on each
-/// trunk plane, x at 20 rad/s above the sweep's highest 15 and y at 15, the limit (1.69 m/s2)
-/// clipping six records. As a filter of the CoM reference the best mode fit left a
-/// chi-square of 72 000 (the drawn robot's own values: 1 170) and a held-out error above the
-/// model's without it, so the loop added nothing and ended unexplained at 11.5x the noise
-/// floor: it tries the law inside the servo only for a mode it has added. The mode candidate
-/// is now also fitted inside the servo from its filter fit (`engine::score_candidate`).
-/// Thresholds fixed before the run: the mode named first, no other effect, the suite's
-/// closure rule (explained, within 2x), the links inside the servo.
-#[test]
-#[ignore = "long: a loop on one draw of the independent simulator (minutes); `cargo xtask ci --long` runs it"]
-fn a_mode_the_force_limit_hides_from_the_filter_law_is_named_inside_the_servo() {
-    let r = indep_loop::loop_on(1_080_004, SCENARIO);
-    assert_eq!(r.found, [EffectKind::StructuralMode], "found {:?}", r.found);
-    assert!(
-        r.explained && r.final_error < 2.0 * r.noise_floor,
-        "{} at {:.2}x the floor",
-        if r.explained {
-            "explained"
-        } else {
-            "unexplained"
-        },
-        r.final_error / r.noise_floor
-    );
-    let trunks = trunks(&r.final_model);
-    assert!(
-        trunks.len() == 2 && trunks.iter().all(|e| e.value("in_servo") == Some(1.0)),
-        "{}",
-        r.final_model.to_toml()
-    );
 }

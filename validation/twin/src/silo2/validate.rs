@@ -349,7 +349,7 @@ pub fn validate(opts: &ValidateOptions) -> Result<Summary> {
     let final_model = if diag.selected.is_empty() {
         None
     } else {
-        let names: Vec<&str> = diag.selected.iter().map(|(e, _)| e.as_str()).collect();
+        let names: Vec<&str> = diag.selected.iter().map(|(c, _)| c.name()).collect();
         let file = PathBuf::from(format!("identified+{}.toml", names.join("+")));
         zmp_files::atomic_write(
             &dir.join(&file),
