@@ -15,6 +15,7 @@ pub mod lti_effect;
 pub mod memo;
 pub mod model_file;
 pub mod plant;
+pub mod robust;
 pub mod walking;
 
 pub use axis::{Axis, Channel};

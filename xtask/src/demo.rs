@@ -146,6 +146,7 @@ pub fn bode_panels(spec: &ModelSpec, title_prefix: &str) -> Result<Vec<BodePanel
             ),
             series: vec![BodeSeries::line("nominal model", w.clone(), g, PALETTE[0])],
             bands,
+            magnitude_only: false,
         });
     }
     Ok(panels)

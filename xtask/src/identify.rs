@@ -125,9 +125,11 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
         Some(dir) => Some(write_report(&ident, dir, force)?),
         None => None,
     };
+    let robust = crate::robust::seed_controller_check(&ident.model)?;
     if json {
         let mut s = summary_json(&ident);
         s["model"] = serde_json::json!(out);
+        s["robust"] = serde_json::to_value(zmp_report::robust::summary(&robust))?;
         if let Some(f) = &files {
             s["report"] = serde_json::json!(f.html);
         }
@@ -159,6 +161,11 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
                 );
             }
         }
+        println!(
+            "robust stability with the seed's controller ({}): {}",
+            robust.controller,
+            robust.summary()
+        );
         println!("model -> {}", out.display());
         if let Some(f) = &files {
             println!("report -> {}", f.html.display());

@@ -249,7 +249,7 @@ pub fn chi2_quantile(nu: f64, p: f64) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// A held-out result of residual vectors (one component per record).
@@ -265,7 +265,7 @@ mod tests {
 
     /// A deterministic standard normal sample (Box-Muller over a linear congruential
     /// generator).
-    fn normals(n: usize, mut state: u64) -> Vec<f64> {
+    pub(crate) fn normals(n: usize, mut state: u64) -> Vec<f64> {
         let mut u = move || {
             state = state
                 .wrapping_mul(6364136223846793005)

@@ -12,13 +12,11 @@
 //! saturated records are checked on their own, so the test cannot pass on the many linear
 //! records alone.
 
-use zmp_suites::docs;
-
-use docs::doc_section;
 use num_complex::Complex64;
 use zmp_campaign::read_campaign;
 use zmp_diagnose::measure::{aggregate, predict, score};
 use zmp_diagnose::run::observe_campaign;
+use zmp_files::sections::check_page as doc_section;
 use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Robot};
 use zmp_models::effects::servo_link::{joint_response, TrunkLink};
 use zmp_models::ModelSpec;

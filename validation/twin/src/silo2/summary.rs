@@ -91,6 +91,8 @@ pub struct Summary {
     pub format: &'static str,
     pub model_file: String,
     pub short: bool,
+    /// The campaign was extended to 50 rad/s.
+    pub extended: bool,
     pub output: PathBuf,
     pub mass: MassProperties,
     pub predictions: Vec<OperatingPoint>,
@@ -104,6 +106,8 @@ pub struct Summary {
     pub identify_warnings: Vec<String>,
     pub closed_loop: ClosedLoopSummary,
     pub diagnosis: DiagnosisSummary,
+    /// The stance resonance swept on the model file against the mode the diagnosis named.
+    pub stance: Vec<super::stance::AxisStance>,
     /// Frame files (relative to the output folder), or why there are none.
     pub frames: Vec<PathBuf>,
     pub frames_note: Option<String>,
