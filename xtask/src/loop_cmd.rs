@@ -269,8 +269,8 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         robust.summary()
     ));
     if outcome == Outcome::Ambiguous {
-        // The experiment that decides: `cargo xtask design-next` (issue 55, item 5) takes the
-        // set's models.
+        // HOOK(design-next): the experiment that decides, `cargo xtask design-next` (issue 55,
+        // item 5), takes the set's models; once it is on main the loop calls it here.
         let models: Vec<String> = std::iter::once(&current_path)
             .chain(alternatives.iter().map(|v| &v.model))
             .map(|m| format!("--model {}", m.display()))

@@ -98,10 +98,9 @@ pub fn clamped(spec: &ModelSpec, o: &Observation) -> bool {
 /// axis, frequency and operating point): `(small, its ratio, large, its ratio)` from the
 /// measured-over-model ratios `r`; empty when the campaign has one amplitude. Pairs whose large
 /// sine `spec`'s force limit clamps ([`clamped`]) are left out: there the ratio weighs the
-/// model's saturation law against the robot's, not the small sine against the large one (held-
-/// out draw 1160031, a play of 0.3 mm: every pair below 15 rad/s showed the play's extra lag,
-/// 0.04-0.06 rad, and the three clamped 8 mm pairs at 15 rad/s, with a tenth of their noise, a
-/// small sine responding 2-5 % more, which outweighed them).
+/// model's saturation law against the robot's, not the small sine against the large one; and a
+/// clamped large sine, with a high response, has a small relative noise, so a few such pairs
+/// would outweigh every unclamped pair in the weighted contrast.
 fn amplitude_pairs(
     obs: &[&Observation],
     r: &[(usize, Complex64)],
@@ -446,7 +445,7 @@ mod tests {
 
     /// A pair whose large sine the model's force limit clamps says how the model's saturation
     /// law differs from the robot's, not how the small sine differs from the large one: it is
-    /// left out of the contrast (held-out draw 1160031).
+    /// left out of the contrast.
     #[test]
     fn the_contrast_leaves_out_pairs_whose_large_sine_the_force_limit_clamps() {
         // Below 8 rad/s the 3 mm sines lag 3 degrees (1 % noise); at 8 rad/s, where the
