@@ -16,7 +16,9 @@
 //! *best* is the admissible structure with the lowest held-out chi-square. The *set* is the
 //! best and the admissible structures that are not significantly worse than it nor than any
 //! structure already in the set (at most [`MAX_SET`], one per set of kinds, best first): more
-//! than one, and the data cannot decide between them.
+//! than one, and the data cannot decide between them. A structure that does not predict
+//! significantly better than a smaller admissible structure inside it (the identified model's
+//! own, say) is no alternative to it.
 
 use crate::criterion::{compare, split, threshold, Comparison, HeldOut};
 use crate::fit::{core_frees, fit_starts, undo, Fit};
@@ -281,15 +283,30 @@ pub fn admissible(nodes: &BTreeMap<Structure, Node>, s: &Structure, z_crit: f64,
 }
 
 /// The best admissible structure and those the data cannot separate from it (see the module
-/// documentation).
+/// documentation), leaving out every structure that is not significantly better than a
+/// smaller admissible one inside it.
 fn ambiguity_set(
     nodes: &BTreeMap<Structure, Node>,
     admissible: &[Structure],
     z_crit: f64,
     c: f64,
 ) -> Vec<Structure> {
+    // Parsimony: a structure that does not predict significantly better than a smaller
+    // admissible structure inside it is no alternative to it (the test is not transitive: two
+    // effects can each pass against the structure without them and together not against the
+    // identified model's own).
+    let pool: Vec<&Structure> = admissible
+        .iter()
+        .filter(|s| {
+            !admissible.iter().any(|t| {
+                t.len() < s.len()
+                    && t.effects().iter().all(|c| s.contains(c))
+                    && !compare(&nodes[*s].held, &nodes[t].held, c).better(z_crit)
+            })
+        })
+        .collect();
     let mut set: Vec<Structure> = Vec::new();
-    for s in admissible {
+    for s in pool {
         if set.len() >= MAX_SET {
             break;
         }
@@ -469,6 +486,39 @@ mod tests {
         // The low-pass misses the 8 records by 3 standard deviations: the delay alone.
         let (_, set) = set_of(plus(&noise, &miss, 0.5));
         assert_eq!(set, vec![d.clone()]);
+    }
+
+    /// Two effects that each make the fit worse (8 records missed by 12 standard deviations
+    /// instead of 6) and together only add noise to the identified model's own: the pair beats
+    /// each of them, so it is admissible, and the identified model cannot be shown better than
+    /// it (z about 2.6 against 3.09); but it is not better than the model inside it, so it is
+    /// no alternative: the set is the identified model alone.
+    #[test]
+    fn a_structure_no_better_than_one_inside_it_is_no_alternative() {
+        let a = Candidate::new(EffectKind::TimeDelay, Law::Only);
+        let b = Candidate::new(EffectKind::SensorDrift, Law::Only);
+        let root = Structure::root();
+        let (sa, sb, pair) = (root.with(a), root.with(b), root.with(a).with(b));
+        let noise = normals(108, 21);
+        let miss: Vec<f64> = (0..108)
+            .map(|k| if k % 13 == 0 { 6.0 } else { 0.0 })
+            .collect();
+        let apart = normals(108, 22);
+        let mut nodes = BTreeMap::new();
+        for (s, r) in [
+            (&root, plus(&noise, &miss, 1.0)),
+            (&sa, plus(&noise, &miss, 2.0)),
+            (&sb, plus(&noise, &miss, 2.0)),
+            (&pair, plus(&plus(&noise, &miss, 1.0), &apart, 0.5)),
+        ] {
+            nodes.insert(s.clone(), node(s, r));
+        }
+        let z = threshold(10);
+        let c = mismatch(&nodes);
+        let adm = adm_sorted(&nodes, z, c);
+        assert!(adm.contains(&pair), "the pair beats both its parents");
+        assert!(!compare(&nodes[&root].held, &nodes[&pair].held, c).better(z));
+        assert_eq!(ambiguity_set(&nodes, &adm, z, c), vec![root]);
     }
 
     /// The admissible structures of `nodes`, best first.
