@@ -12,9 +12,10 @@ use std::time::{Duration, Instant};
 use zmp_campaign::Campaign;
 use zmp_diagnose::augment::augment_observations;
 use zmp_diagnose::design::{design_next, DesignOptions, Rival};
-use zmp_diagnose::engine::refit_all;
 use zmp_diagnose::observe::Observation;
+use zmp_diagnose::profiles::DataRange;
 use zmp_diagnose::run::observe_campaign;
+use zmp_diagnose::search::fit_root;
 use zmp_diagnose::DiagnoseOptions;
 use zmp_models::{Axis, Binding, EffectInstance, EffectKind, ModelSpec};
 use zmp_virtual_robot::{simulate_campaign, ExperimentDesign};
@@ -47,7 +48,9 @@ fn case(paper: &ModelSpec, in_servo: f64) -> (Campaign, Vec<Rival>) {
     let (obs, _) = observe_campaign(&camp, 2);
     let refs: Vec<&Observation> = obs.iter().collect();
     let start = with(paper, EffectKind::Backlash, &[0.0005, in_servo]);
-    let play = refit_all(&start, &refs).expect("refit").spec;
+    let play = fit_root(&start, &refs, &DataRange::of(&refs))
+        .expect("refit")
+        .spec;
     let opts = DiagnoseOptions {
         threads: 2,
         ..DiagnoseOptions::default()

@@ -61,7 +61,7 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10).measurement_time(Duration::from_secs(20));
     for (name, (camp, model), expect) in &cases {
         let d = diagnose(camp, model, &opts, &|_| {}).expect("diagnose");
-        assert_eq!(d.verdict, expect.name(), "{}", d.to_text());
+        assert_eq!(d.verdict.name(), expect.name(), "{}", d.to_text());
         g.bench_function(*name, |b| {
             b.iter(|| black_box(diagnose(camp, model, &opts, &|_| {}).expect("diagnose")))
         });

@@ -158,11 +158,8 @@ pub fn run_diagnosis(
     opts: &DiagnoseOptions,
     quiet: bool,
 ) -> Result<Diagnosis> {
-    let pb = progress_bar(
-        (2 + zmp_diagnose::candidates::CATALOGUE.len()) as u64,
-        "diagnosing",
-        quiet,
-    );
+    // A structure scored at a time (each message names it and counts).
+    let pb = crate::simulate::spinner("diagnosing", quiet);
     let d = diagnose(camp, spec, opts, &|what| {
         pb.set_message(what.to_string());
         pb.inc(1);

@@ -205,9 +205,12 @@ pub fn record_in_ledger(
     change: &str,
     opts: &zmp_diagnose::DiagnoseOptions,
 ) -> Result<()> {
-    use zmp_diagnose::{engine::evaluate, measure::aggregate};
+    let evaluate = |spec: &zmp_models::ModelSpec, refs: &[&zmp_diagnose::observe::Observation]| {
+        zmp_diagnose::measure::predict(spec, refs)
+            .map(|p| zmp_diagnose::run::error_and_floor(refs, &p))
+    };
     let refs: Vec<_> = obs.iter().collect();
-    let (e, f) = aggregate(&evaluate(spec, &refs)?);
+    let (e, f) = evaluate(spec, &refs)?;
     // A starting model in the same folder joins the chain (recorded first if these contents
     // have no entry yet).
     let parent = parent.filter(|p| p.parent() == out.parent() && p != &out);
@@ -220,7 +223,7 @@ pub fn record_in_ledger(
         });
         if !known {
             let start = crate::simulate::load_model(p)?;
-            let (e0, f0) = aggregate(&evaluate(&start, &refs)?);
+            let (e0, f0) = evaluate(&start, &refs)?;
             zmp_campaign::ledger::append_unless_recorded(
                 p,
                 "starting model",

@@ -10,7 +10,7 @@ use anyhow::Result;
 use std::path::{Path, PathBuf};
 use zmp_campaign::ledger;
 use zmp_campaign::Campaign;
-use zmp_diagnose::iterate::MAX_ROUNDS;
+use zmp_diagnose::iterate::Outcome;
 use zmp_diagnose::observe::Observation;
 use zmp_diagnose::DiagnoseOptions;
 use zmp_identify::IdentifyOptions;
@@ -44,8 +44,14 @@ pub struct LoopSummary {
     pub campaign: PathBuf,
     /// Effects added, in order.
     pub found: Vec<String>,
-    /// `explained` when the last model explains the data, else `unexplained`.
-    pub outcome: String,
+    /// `explained` when the last model explains the data, `ambiguous` when the records do not
+    /// decide between several structures (`set`), else `unexplained`.
+    pub outcome: Outcome,
+    /// When ambiguous: each structure of the set (its effects), best first; the first is the
+    /// last version, the others are `alternatives`.
+    pub set: Vec<Vec<String>>,
+    /// When ambiguous: the set's other structures, each a version of the identified model.
+    pub alternatives: Vec<Version>,
     /// The first diagnosis's verdict.
     pub verdict: String,
     pub versions: Vec<Version>,
@@ -258,10 +264,10 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         campaign_path: Some(a.campaign.to_path_buf()),
         ..IdentifyOptions::default()
     };
-    let pb = progress_bar(1 + 2 * MAX_ROUNDS as u64, "identifying", quiet);
+    let pb = progress_bar(3, "identifying", quiet);
     let r = zmp_diagnose::iterate::run_loop(camp, start, &iopts, &dopts, &|what| {
         pb.set_message(what.to_string());
-        if what == "diagnosing" || what.starts_with("adding") {
+        if what == "diagnosing" || what == "identifying" {
             pb.inc(1);
         }
     })?;
@@ -312,6 +318,10 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         for f in d.findings.iter().filter(|f| f.significant) {
             say(&format!("   - {}: {}", f.effect, f.evidence));
         }
+        for a in d.alternatives.iter().filter(|_| d.alternatives.len() > 1) {
+            let words = a.distinguished.as_ref().map_or("", |s| s.words.as_str());
+            say(&format!("   ? {}: {words}", a.structure));
+        }
     }
     let mut current_path = identified.clone();
     for (added, aug) in &r.versions {
@@ -350,6 +360,32 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         });
         current_path = next;
     }
+    let mut alternatives = Vec::new();
+    for (added, aug) in &r.alternatives {
+        let next = augmented_path(&identified, &added.join("+"));
+        own.write_model(&next, &aug.spec.to_toml())?;
+        ledger::append(
+            &next,
+            Some(&identified),
+            &aug.change,
+            &cname,
+            aug.error_after,
+            aug.noise_floor,
+        )?;
+        say(&format!(
+            "   ? {}: error {:.4} ({:.1}x the floor) -> {}",
+            added.join("+"),
+            aug.error_after,
+            aug.error_after / aug.noise_floor,
+            next.display()
+        ));
+        alternatives.push(Version {
+            model: next,
+            change: aug.change.clone(),
+            error: aug.error_after,
+            noise_floor: aug.noise_floor,
+        });
+    }
     let obs: Vec<&Observation> = r.observations.iter().collect();
     let final_preds = zmp_diagnose::measure::predict(&r.final_model, &obs)?;
     let still_failing: Vec<String> = zmp_diagnose::cells::cells(&obs, &final_preds)
@@ -365,13 +401,10 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     } else {
         history_cmd(&current_path, Some(&history), true, false)?;
     }
-    let outcome = if r.explained {
-        "explained"
-    } else {
-        "unexplained"
-    };
+    let outcome = r.outcome;
     say(&format!(
-        "outcome: {outcome}{}",
+        "outcome: {}{}",
+        serde_json::to_value(outcome)?.as_str().unwrap_or_default(),
         if r.found.is_empty() {
             String::new()
         } else {
@@ -387,6 +420,25 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         robust.controller,
         robust.summary()
     ));
+    if outcome == Outcome::Ambiguous {
+        // HOOK(design-next): the experiment that decides, `cargo xtask design-next` (issue 55,
+        // item 5), takes the set's models; once it is on main the loop calls it here.
+        let models: Vec<String> = std::iter::once(&current_path)
+            .chain(alternatives.iter().map(|v| &v.model))
+            .map(|m| format!("--model {}", m.display()))
+            .collect();
+        say(&format!(
+            "   the records do not decide between {}; the records that would: cargo xtask \
+             design-next {} {}",
+            r.set
+                .iter()
+                .map(|s| s.join("+"))
+                .collect::<Vec<_>>()
+                .join(" / "),
+            a.campaign.display(),
+            models.join(" ")
+        ));
+    }
     if r.time_limit_reached {
         say(&format!(
             "   the time limit ({} s, --time-limit) passed before the loop ended: the last \
@@ -397,11 +449,13 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     Ok(LoopSummary {
         campaign: a.campaign.to_path_buf(),
         found: r.found.clone(),
-        outcome: outcome.into(),
+        outcome,
+        set: r.set.clone(),
+        alternatives,
         verdict: r
             .diagnoses
             .first()
-            .map_or(String::new(), |d| d.verdict.clone()),
+            .map_or(String::new(), |d| d.verdict.to_string()),
         versions,
         noise_floor: r.noise_floor,
         reports,

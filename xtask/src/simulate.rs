@@ -87,6 +87,20 @@ pub fn simulate_cmd(
     Ok(())
 }
 
+/// A spinner with a message and the time spent, for work whose length is not known up front.
+pub fn spinner(what: &str, quiet: bool) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let pb = ProgressBar::new_spinner();
+    pb.set_style(
+        ProgressStyle::with_template("{spinner} {msg} {elapsed_precise}").expect("valid template"),
+    );
+    pb.set_message(what.to_string());
+    pb.enable_steady_tick(std::time::Duration::from_millis(200));
+    pb
+}
+
 /// Simulates `design` on `spec` and writes the campaign to `out`.
 pub fn simulate(
     spec: &ModelSpec,

@@ -1,11 +1,13 @@
-//! Adding a catalogued effect to a model (fitted with the core parameters on every record),
-//! and refitting the structure a model file names.
+//! Adding a catalogue effect to a model (fitted with every parameter on every record), writing
+//! a model the diagnosis fitted as a version, and refitting the structure a model file names.
 
-use super::candidates::{core_frees, DataRange, CATALOGUE};
-use super::engine::{evaluate, fit_structure, own_parameters_of, structure_frees, Fitted};
-use super::measure::aggregate;
-use super::observe::Observation;
-use super::run::{check_inputs, observe_campaign, DiagnoseError, DiagnoseOptions};
+use crate::fit::{all_frees, fit_lm, fit_starts, polish, Fit, DESCENT_FACTOR, ITERS_JOINT};
+use crate::measure::predict;
+use crate::observe::Observation;
+use crate::profiles::{candidates, catalogue_names, kind_named, profile, DataRange};
+use crate::run::{check_inputs, error_and_floor, observe_campaign, DiagnoseError, DiagnoseOptions};
+use crate::search::fit_root;
+use crate::structure::Structure;
 use std::collections::BTreeMap;
 use zmp_campaign::ledger::utc_now;
 use zmp_campaign::Campaign;
@@ -20,20 +22,16 @@ pub struct Augmented {
     pub error_before: f64,
     pub error_after: f64,
     pub noise_floor: f64,
-    /// Fitted parameters of the added effect (or of every non-core effect): value, s.e.
+    /// Fitted parameters of every effect beyond the core: value, s.e.
     pub parameters: BTreeMap<String, (f64, f64)>,
     pub records: usize,
 }
 
-fn prepare(
-    campaign: &Campaign,
-    model: &ModelSpec,
-    opts: &DiagnoseOptions,
-) -> Result<Vec<Observation>, DiagnoseError> {
-    let (obs, _) = observe_campaign(campaign, opts.threads);
-    let refs: Vec<&Observation> = obs.iter().collect();
-    check_inputs(&refs, model, opts)?;
-    Ok(obs)
+fn model_error(opts: &DiagnoseOptions, message: String) -> DiagnoseError {
+    DiagnoseError::Model {
+        model: opts.model_path.clone(),
+        message,
+    }
 }
 
 fn error_of(
@@ -41,15 +39,13 @@ fn error_of(
     obs: &[&Observation],
     opts: &DiagnoseOptions,
 ) -> Result<(f64, f64), DiagnoseError> {
-    let s = evaluate(spec, obs).map_err(|e| DiagnoseError::Model {
-        model: opts.model_path.clone(),
-        message: e.to_string(),
-    })?;
-    Ok(aggregate(&s))
+    let p = predict(spec, obs).map_err(|e| model_error(opts, e.to_string()))?;
+    Ok(error_and_floor(obs, &p))
 }
 
-fn record_stderr(spec: &mut ModelSpec, fitted: &Fitted) {
-    for (f, se) in fitted.frees.iter().zip(&fitted.std_err) {
+/// Writes each fitted parameter's standard error into the model's `stderr` tables.
+fn record_stderr(spec: &mut ModelSpec, fit: &Fit) {
+    for (f, se) in fit.frees.iter().zip(&fit.std_err) {
         if !se.is_finite() {
             continue;
         }
@@ -77,21 +73,16 @@ fn record_stderr(spec: &mut ModelSpec, fitted: &Fitted) {
 }
 
 fn stamp(spec: &mut ModelSpec, change: &str, campaign: &str, records: usize) {
-    spec.provenance.insert(
-        "tool".into(),
-        toml::Value::String(format!("zmp-toolkit {}", env!("CARGO_PKG_VERSION"))),
-    );
-    spec.provenance
-        .insert("date".into(), toml::Value::String(utc_now()));
-    spec.provenance
-        .insert("campaign".into(), toml::Value::String(campaign.to_string()));
-    spec.provenance
-        .insert("records".into(), toml::Value::Integer(records as i64));
-    spec.provenance
-        .insert("change".into(), toml::Value::String(change.to_string()));
+    let p = &mut spec.provenance;
+    let tool = format!("zmp-toolkit {}", env!("CARGO_PKG_VERSION"));
+    p.insert("tool".into(), toml::Value::String(tool));
+    p.insert("date".into(), toml::Value::String(utc_now()));
+    p.insert("campaign".into(), toml::Value::String(campaign.to_string()));
+    p.insert("records".into(), toml::Value::Integer(records as i64));
+    p.insert("change".into(), toml::Value::String(change.to_string()));
 }
 
-/// Adds `effect` (a catalogue name) to `model` and fits it, with the core parameters, on every
+/// Adds `effect` (a catalogue name) to `model` and fits it, with every parameter, on every
 /// record of `campaign`.
 pub fn augment(
     campaign: &Campaign,
@@ -99,139 +90,101 @@ pub fn augment(
     effect: &str,
     opts: &DiagnoseOptions,
 ) -> Result<Augmented, DiagnoseError> {
-    check_effect(effect, model, opts)?;
-    let obs = prepare(campaign, model, opts)?;
+    kind_of(effect, opts)?;
+    let (obs, _) = observe_campaign(campaign, opts.threads);
     let refs: Vec<&Observation> = obs.iter().collect();
+    check_inputs(&refs, model, opts)?;
     augment_observations(&refs, model, effect, opts)
 }
 
-/// Whether `effect` is a catalogue name that can be added to `model`.
-fn check_effect(
-    effect: &str,
-    model: &ModelSpec,
-    opts: &DiagnoseOptions,
-) -> Result<(), DiagnoseError> {
-    let Some(_) = CATALOGUE.iter().find(|c| c.effect == effect) else {
-        return Err(DiagnoseError::Model {
-            model: opts.model_path.clone(),
-            message: format!(
-                "unknown effect {effect:?}: the catalogue has {}",
-                CATALOGUE
-                    .iter()
-                    .map(|c| c.effect)
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-        });
-    };
-    if !super::engine::addable(effect, model) {
-        return Err(DiagnoseError::Model {
-            model: opts.model_path.clone(),
-            message: format!(
-                "the model already has {effect}; to refit it run `cargo xtask identify CAMPAIGN \
-                 --model {}`",
-                opts.model_path
-            ),
-        });
-    }
-    Ok(())
+fn kind_of(effect: &str, opts: &DiagnoseOptions) -> Result<zmp_models::EffectKind, DiagnoseError> {
+    kind_named(effect).ok_or_else(|| {
+        let known = catalogue_names().join(", ");
+        model_error(
+            opts,
+            format!("unknown effect {effect:?}: the catalogue has {known}"),
+        )
+    })
 }
 
-/// [`augment`] on observations already made (checked against the model by the caller).
+/// [`augment`] on observations already made (checked against the model by the caller): the
+/// effect under each of its laws (on each excited plane for a mode) added to the model's own
+/// structure refitted, by the diagnosis's multi-start policy; the best fit on these records.
 pub fn augment_observations(
     refs: &[&Observation],
     model: &ModelSpec,
     effect: &str,
     opts: &DiagnoseOptions,
 ) -> Result<Augmented, DiagnoseError> {
+    let kind = kind_of(effect, opts)?;
     zmp_campaign::par::with_threads(opts.threads, || {
-        augment_observations_in_budget(refs, model, effect, opts)
+        let r = DataRange::of(refs);
+        let (before, floor) = error_of(model, refs, opts)?;
+        let mine: Vec<_> = candidates(model, &r)
+            .into_iter()
+            .filter(|c| c.kind == kind)
+            .collect();
+        if mine.is_empty() {
+            return Err(model_error(
+                opts,
+                format!(
+                    "{effect} has nothing to add to this model on this campaign (it has it \
+                     already?); to refit it run `cargo xtask identify CAMPAIGN --model {}`",
+                    opts.model_path
+                ),
+            ));
+        }
+        // The effect is added to the model's own structure refitted first (what the diagnosis
+        // compares it with): a model identified without the effect has absorbed part of it.
+        let root = fit_root(model, refs, &r)
+            .ok_or_else(|| model_error(opts, "the refit of the model failed".into()))?;
+        let fit = mine
+            .iter()
+            .filter_map(|c| {
+                let starts = profile(kind).starts(&root.spec, c, &r);
+                fit_starts(&starts, refs, &r)
+            })
+            .min_by(|a, b| a.cost.total_cmp(&b.cost))
+            .ok_or_else(|| model_error(opts, format!("the fit of {effect} failed")))?;
+        finish(refs, fit, &format!("+{effect}"), before, floor, opts)
     })
 }
 
-/// [`augment_observations`] once its thread budget is set.
-fn augment_observations_in_budget(
-    refs: &[&Observation],
-    model: &ModelSpec,
-    effect: &str,
-    opts: &DiagnoseOptions,
-) -> Result<Augmented, DiagnoseError> {
-    check_effect(effect, model, opts)?;
-    let cand = CATALOGUE
-        .iter()
-        .find(|c| c.effect == effect)
-        .expect("checked");
-    let refs = refs.to_vec();
-    let (before, floor) = error_of(model, &refs, opts)?;
-    // The effect is added to the model's own structure refitted first (what the diagnosis
-    // compares it with): a model identified without the effect has absorbed part of it.
-    let base = super::engine::refit_all(model, &refs)
-        .map(|f| f.spec)
-        .unwrap_or_else(|| model.clone());
-    let starts = (cand.prepare)(&base, &DataRange::of(&refs));
-    if starts.is_empty() {
-        return Err(DiagnoseError::Model {
-            model: opts.model_path.clone(),
-            message: format!("{effect} has nothing to add to this model on this campaign"),
-        });
-    }
-    let fitted =
-        super::engine::fit(effect, &starts, &refs).ok_or_else(|| DiagnoseError::Model {
-            model: opts.model_path.clone(),
-            message: format!("the fit of {effect} failed"),
-        })?;
-    finish(&refs, fitted, &format!("+{effect}"), before, floor, opts)
-}
-
-/// A model the diagnosis fitted as a written version: with effects added (one step of its
-/// path, `change` `+EFFECT`) or its own structure refitted (`refit`), fitted further to
-/// convergence on every record, with standard errors and provenance. `model` is the version
-/// it follows (for the error before).
+/// A model the diagnosis fitted as a written version (change `+EFFECT`, `refit`, ...), fitted
+/// further to convergence on every record, with standard errors and provenance. `model` is the
+/// version it follows (for the error before).
 pub fn version_from_diagnosis(
     refs: &[&Observation],
     model: &ModelSpec,
-    fitted: &Fitted,
+    fit: &Fit,
     change: &str,
     opts: &DiagnoseOptions,
 ) -> Result<Augmented, DiagnoseError> {
     zmp_campaign::par::with_threads(opts.threads, || {
-        version_from_diagnosis_in_budget(refs, model, fitted, change, opts)
+        let (before, floor) = error_of(model, refs, opts)?;
+        finish(refs, fit.clone(), change, before, floor, opts)
     })
-}
-
-/// [`version_from_diagnosis`] once its thread budget is set.
-fn version_from_diagnosis_in_budget(
-    refs: &[&Observation],
-    model: &ModelSpec,
-    fitted: &Fitted,
-    change: &str,
-    opts: &DiagnoseOptions,
-) -> Result<Augmented, DiagnoseError> {
-    let (before, floor) = error_of(model, refs, opts)?;
-    finish(refs, fitted.clone(), change, before, floor, opts)
 }
 
 fn finish(
     refs: &[&Observation],
-    fitted: Fitted,
+    fit: Fit,
     change: &str,
     before: f64,
     floor: f64,
     opts: &DiagnoseOptions,
 ) -> Result<Augmented, DiagnoseError> {
-    // The model written is fitted to convergence, not to the diagnosis's screening budget.
-    let fitted = fit_structure(&fitted.spec, &fitted.frees, fitted.own, refs)
-        .filter(|f| f.cost <= fitted.cost)
-        .unwrap_or(fitted);
-    let (after, _) = error_of(&fitted.spec, refs, opts)?;
-    let mut spec = fitted.spec.clone();
-    record_stderr(&mut spec, &fitted);
-    let change = change.to_string();
-    stamp(&mut spec, &change, &opts.campaign_path, refs.len());
+    let r = DataRange::of(refs);
+    // The model written is fitted on for as long as it descends.
+    let fit = polish(fit, refs, &r);
+    let (after, _) = error_of(&fit.spec, refs, opts)?;
+    let mut spec = fit.spec.clone();
+    record_stderr(&mut spec, &fit);
+    stamp(&mut spec, change, &opts.campaign_path, refs.len());
     Ok(Augmented {
-        parameters: own_parameters_of(&fitted),
+        parameters: effect_parameters(&fit),
         spec,
-        change,
+        change: change.to_string(),
         error_before: before,
         error_after: after,
         noise_floor: floor,
@@ -239,51 +192,53 @@ fn finish(
     })
 }
 
-/// Refits every parameter of the structure `model` names (its non-core effects and the core)
-/// on `campaign`. Returns `None` in `Augmented::change` terms when the model has no effect
-/// beyond the core.
+/// The fitted parameters of every effect beyond the core (pendulum and tracking low-pass).
+fn effect_parameters(fit: &Fit) -> BTreeMap<String, (f64, f64)> {
+    let core = [
+        zmp_models::EffectKind::Pendulum,
+        zmp_models::EffectKind::TrackingLowpass,
+    ];
+    fit.frees
+        .iter()
+        .zip(&fit.std_err)
+        .filter(|(f, _)| !core.contains(&f.kind))
+        .map(|(f, e)| (f.name(), (f.bounds.value, *e)))
+        .collect()
+}
+
+/// Refits every parameter of the structure `model` names (its effects and the core) on
+/// `campaign`. `None` when the model has no effect beyond the core.
 pub fn refit_structure(
     campaign: &Campaign,
     model: &ModelSpec,
     opts: &DiagnoseOptions,
 ) -> Result<Option<Augmented>, DiagnoseError> {
     zmp_campaign::par::with_threads(opts.threads, || {
-        refit_structure_in_budget(campaign, model, opts)
+        let (obs, _) = observe_campaign(campaign, opts.threads);
+        let refs: Vec<&Observation> = obs.iter().collect();
+        check_inputs(&refs, model, opts)?;
+        let r = DataRange::of(&refs);
+        if crate::profiles::effect_frees(model, &r).is_empty() {
+            return Ok(None);
+        }
+        let (before, floor) = error_of(model, &refs, opts)?;
+        let frees = all_frees(model, &r);
+        let fit = fit_lm(
+            model,
+            &frees,
+            &refs,
+            ITERS_JOINT,
+            DESCENT_FACTOR * ITERS_JOINT,
+        )
+        .ok_or_else(|| model_error(opts, "the refit of the model's structure failed".into()))?;
+        finish(&refs, fit, "refit", before, floor, opts).map(Some)
     })
 }
 
-/// [`refit_structure`] once its thread budget is set.
-fn refit_structure_in_budget(
-    campaign: &Campaign,
-    model: &ModelSpec,
-    opts: &DiagnoseOptions,
-) -> Result<Option<Augmented>, DiagnoseError> {
-    let own = structure_frees(model);
-    if own.is_empty() {
-        return Ok(None);
-    }
-    let obs = prepare(campaign, model, opts)?;
-    let refs: Vec<&Observation> = obs.iter().collect();
-    let (before, floor) = error_of(model, &refs, opts)?;
-    let n_own = own.len();
-    let mut frees = own;
-    frees.extend(core_frees(model, true));
-    let fitted =
-        fit_structure(model, &frees, n_own, &refs).ok_or_else(|| DiagnoseError::Model {
-            model: opts.model_path.clone(),
-            message: "the refit of the model's structure failed".into(),
-        })?;
-    let (after, _) = error_of(&fitted.spec, &refs, opts)?;
-    let mut spec = fitted.spec.clone();
-    record_stderr(&mut spec, &fitted);
-    stamp(&mut spec, "refit", &opts.campaign_path, refs.len());
-    Ok(Some(Augmented {
-        parameters: own_parameters_of(&fitted),
-        spec,
-        change: "refit".into(),
-        error_before: before,
-        error_after: after,
-        noise_floor: floor,
-        records: refs.len(),
-    }))
+/// The structure a diagnosis names, for a version's change label: `+time_delay+backlash`.
+pub fn change_label(s: &Structure) -> String {
+    s.effects()
+        .iter()
+        .map(|c| format!("+{}", c.name()))
+        .collect()
 }

@@ -323,7 +323,8 @@ fn check(obs: &[&Observation], rivals: &[Rival], opts: &DesignOptions) -> Result
 /// A structure's parts: the parameters a refit frees, by name, and the laws its effects
 /// follow.
 fn parts(spec: &ModelSpec) -> Vec<String> {
-    let mut names: Vec<String> = crate::engine::refit_frees(spec, &[])
+    // The names alone: the records only bound the parameters.
+    let mut names: Vec<String> = separation::refit_frees(spec, &[])
         .iter()
         .map(|f| f.name())
         .collect();

@@ -56,9 +56,8 @@ pub fn predict(
 /// [`predict`] that gives up (`Ok(None)`) once the time limit of the work it serves has
 /// passed ([`zmp_campaign::par::past_deadline`]), checked before each record: what a fit's evaluation
 /// uses, so that a fit past the limit ends with its best so far. A deadline checked only
-/// before each evaluation let one evaluation of a model with a friction, whose stick-slip
-/// records are simulated one by one, run minutes past it (held-out draw 1240030: a draw
-/// limited to 600 s ended after 809 s).
+/// before each evaluation lets one evaluation of a model with a friction, whose stick-slip
+/// records are simulated one by one (seconds each), run past it by the time of all of them.
 pub fn predict_in_time(
     spec: &ModelSpec,
     obs: &[&Observation],

@@ -16,7 +16,9 @@ use zmp_diagnose::cells::Cell;
 use zmp_diagnose::measure::{aggregate, score, Prediction};
 use zmp_diagnose::observe::Observation;
 use zmp_diagnose::run::Diagnosis;
+use zmp_diagnose::Verdict;
 
+mod decide;
 mod panels;
 use panels::{bode_panels, error_panels, group_bars, harmonic_panel, record_panels, worst};
 
@@ -217,14 +219,14 @@ fn findings_table(d: &Diagnosis) -> String {
         let params: Vec<String> = fd
             .parameters
             .iter()
-            .map(|(n, v)| esc(&format!("{n} = {}", zmp_diagnose::evidence::sig(*v))))
+            .map(|(n, v)| esc(&format!("{n} = {}", zmp_diagnose::words::sig(*v))))
             .collect();
         let _ = writeln!(
             h,
             "<tr><td>{}</td><td class=\"l\">{}{}</td><td class=\"l\">{}</td>\
              <td class=\"l nw\">{}</td><td>{:.4}</td><td>{:.4}</td><td class=\"l\">{}</td></tr>",
             k + 1,
-            esc(&fd.effect),
+            esc(&fd.effect.to_string()),
             if fd.significant {
                 ""
             } else {
@@ -243,10 +245,10 @@ fn findings_table(d: &Diagnosis) -> String {
     if !d.tried.is_empty() {
         let _ = writeln!(
             h,
-            "<p>Every candidate fitted (held-out error / noise floor): {}.</p>",
+            "<p>Every single effect fitted (held-out error / noise floor): {}.</p>",
             d.tried
                 .iter()
-                .map(|(e, x)| esc(&format!("{e} {:.2}", x / f)))
+                .map(|t| esc(&format!("{} {:.2}", t.structure, t.held_out_error / f)))
                 .collect::<Vec<_>>()
                 .join(", ")
         );
@@ -326,37 +328,51 @@ pub fn write_diagnosis_report(
     let f = d.noise_floor;
     let mut h = String::new();
     let title = format!("Diagnosis: {} on {}", d.model, d.campaign);
-    let verdict = match d.verdict.as_str() {
-        "none" => "none: the model explains the measurements to the noise floor".to_string(),
-        "unexplained" => {
-            "unexplained: a significant error remains that no catalogued effect removes".to_string()
+    let verdict = match &d.verdict {
+        Verdict::None => "none: the model explains the measurements to the noise floor".to_string(),
+        Verdict::Unexplained => {
+            "unexplained: a significant error remains that no structure of the catalogue removes"
+                .to_string()
         }
-        "parameter_refit" => {
+        Verdict::Refit => {
             "the structure is right but the parameters are off: identify again".to_string()
         }
-        e => format!("the model is missing <b>{}</b>", esc(e)),
+        Verdict::Ambiguous(set) => format!(
+            "ambiguous: the records do not decide between {}",
+            set.iter()
+                .map(|s| format!("<b>{}</b>", esc(&s.label())))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        Verdict::Effect(c) => format!("the model is missing <b>{}</b>", esc(&c.label())),
     };
     let _ = writeln!(
         h,
         "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{0}</title>{STYLE}</head>\
          <body>\n<h1>{0}</h1>\n<p class=\"v\">Verdict: {verdict}.</p>\n\
          <p>The model as given scores {1:.4} ({2:.1}x the noise floor {f:.4}) on {3} records; \
-         each catalogued effect was added, fitted with the pendulum and the bandwidth, and scored \
-         on records it was not fitted on (two folds by alternate frequencies). An effect counts \
-         when it removes at least half of the error above the floor.</p>\n{MEASURE}",
+         every structure of the catalogue's effects (up to four, each under its law) was fitted \
+         with every parameter and scored on records it was not fitted on (two folds by alternate \
+         frequencies); an effect counts when the structure with it predicts those records \
+         significantly better than without it (z, the held-out chi-square difference over twice \
+         the distance between the two predictions in noise standard deviations, above the 1 % \
+         normal quantile shared over the {4} structures compared: z &gt; {5:.2}).</p>\n{MEASURE}",
         esc(&title),
         d.baseline_error,
         d.baseline_error / f,
-        d.records
+        d.records,
+        d.compared,
+        d.z_crit
     );
     h.push_str(&findings_table(d));
+    h.push_str(&decide::section(d));
     // Waterfall.
     let mut bars = vec![("model as given".to_string(), d.baseline_error)];
     if d.refit_error.is_finite() {
         bars.push(("refitted".into(), d.refit_error));
     }
-    for (e, x) in &d.selected {
-        bars.push((format!("+ {e}"), *x));
+    for (c, x) in &d.selected {
+        bars.push((format!("+ {c}"), *x));
     }
     let wf = dir.join("waterfall.svg");
     bars_svg(

@@ -125,7 +125,7 @@ fn the_diagnosis_report_is_fit_to_be_read() {
         ..DiagnoseOptions::default()
     };
     let d = diagnose(camp, &paper(), &opts, &|_| {}).unwrap();
-    assert_eq!(d.verdict, "time_delay", "{}", d.to_text());
+    assert_eq!(d.verdict.name(), "time_delay", "{}", d.to_text());
     let dir = tempfile::tempdir().unwrap();
     let html = zmp_report::diagnose::write_diagnosis_report(camp, &d, dir.path(), false).unwrap();
     let page = html::check_page(&html);

@@ -5,7 +5,7 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use zmp_diagnose::candidates::add_effect;
+use zmp_diagnose::profiles::add_effect;
 use zmp_models::logspace;
 use zmp_models::{Axis, Binding, EffectKind, ModelSpec};
 use zmp_virtual_robot::ExperimentDesign;
@@ -297,12 +297,14 @@ pub fn run(draw: Draw, threads: usize) -> anyhow::Result<Outcome> {
     };
     let d = diagnose(&camp, &ident.model, &dopts, &|_| {})?;
     let error_after_adding = match draw.effects.first() {
-        Some(e) if *e == d.verdict => Some(augment(&camp, &ident.model, e, &dopts)?.error_after),
+        Some(e) if *e == d.verdict.name() => {
+            Some(augment(&camp, &ident.model, e, &dopts)?.error_after)
+        }
         _ => None,
     };
     Ok(Outcome {
-        verdict: d.verdict.clone(),
-        selected: d.selected.iter().map(|s| s.0.clone()).collect(),
+        verdict: d.verdict.name().to_string(),
+        selected: d.selected.iter().map(|s| s.0.name().to_string()).collect(),
         baseline_error: d.baseline_error,
         noise_floor: d.noise_floor,
         error_after_adding,

@@ -3,10 +3,10 @@
 //! and refitting a hand-edited structure recovers the delay the robot has.
 
 use zmp_diagnose::augment::refit_structure;
-use zmp_diagnose::candidates::add_effect;
 use zmp_diagnose::cells::cells;
 use zmp_diagnose::measure::predict;
 use zmp_diagnose::observe::Observation;
+use zmp_diagnose::profiles::add_effect;
 use zmp_diagnose::run::observe_campaign;
 use zmp_diagnose::{diagnose, DiagnoseOptions};
 use zmp_models::logspace;
@@ -98,7 +98,12 @@ fn compare_locates_a_hidden_delay_and_writes_its_reports() {
     .is_err());
 
     let d = diagnose(&camp, &paper(), &opts(), &|_| {}).unwrap();
-    assert_eq!(d.verdict, EffectKind::TimeDelay, "{}", d.to_text());
+    assert_eq!(
+        d.verdict.name(),
+        EffectKind::TimeDelay.name(),
+        "{}",
+        d.to_text()
+    );
     let f = &d.findings[0];
     assert!(f.evidence.contains("pure delay"), "{}", f.evidence);
     let delay = f.parameters.values().next().copied().unwrap();

@@ -8,10 +8,11 @@
 use zmp_campaign::{append_campaign, read_campaign, Campaign};
 use zmp_diagnose::augment::augment_observations;
 use zmp_diagnose::design::{design_next, to_toml, DesignOptions, Rival};
-use zmp_diagnose::engine::refit_all;
 use zmp_diagnose::measure::{chi2_total, components, predict};
 use zmp_diagnose::observe::Observation;
+use zmp_diagnose::profiles::DataRange;
 use zmp_diagnose::run::{observations_of, observe_campaign};
+use zmp_diagnose::search::fit_root;
 use zmp_diagnose::DiagnoseOptions;
 use zmp_files::sections::check_page as doc_section;
 use zmp_identify::{identify_with_progress, IdentifyOptions};
@@ -142,8 +143,8 @@ fn designed_records_decide_a_delay_beside_a_play_on_the_independent_simulator() 
         "{skipped:?}"
     );
     let refs2: Vec<&Observation> = obs2.iter().collect();
-    let play2 = refit_all(&play, &refs2).unwrap();
-    let both2 = refit_all(&both, &refs2).unwrap();
+    let play2 = fit_root(&play, &refs2, &DataRange::of(&refs2)).unwrap();
+    let both2 = fit_root(&both, &refs2, &DataRange::of(&refs2)).unwrap();
     let n2 = components(&refs2) as f64;
     let mismatch2 = (both2.cost / n2).max(1.0);
     let gain_after = (play2.cost - both2.cost) / mismatch2;

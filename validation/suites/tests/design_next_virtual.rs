@@ -6,10 +6,12 @@
 use zmp_campaign::{append_campaign, Campaign};
 use zmp_diagnose::augment::augment_observations;
 use zmp_diagnose::design::{design_next, evaluate, to_toml, DesignOptions, Designed, Rival};
-use zmp_diagnose::engine::{refit_all, Fitted};
+use zmp_diagnose::fit::Fit as Fitted;
 use zmp_diagnose::measure::{chi2_total, components, predict};
 use zmp_diagnose::observe::Observation;
+use zmp_diagnose::profiles::DataRange;
 use zmp_diagnose::run::observe_campaign;
+use zmp_diagnose::search::fit_root;
 use zmp_diagnose::DiagnoseOptions;
 use zmp_files::sections::check_page as doc_section;
 use zmp_models::{Axis, Binding, EffectInstance, EffectKind, ModelSpec};
@@ -60,7 +62,7 @@ fn observed(c: &Campaign) -> Vec<Observation> {
 
 /// Every parameter of `spec`'s structure refitted on `obs` (the diagnosis's refit).
 fn refit(spec: &ModelSpec, obs: &[&Observation]) -> Fitted {
-    refit_all(spec, obs).expect("the refit evaluates")
+    fit_root(spec, obs, &DataRange::of(obs)).expect("the refit evaluates")
 }
 
 #[test]

@@ -3,7 +3,8 @@
 //! `zmp-diagnosis/1` fields.
 
 use zmp_diagnose::augment::augment;
-use zmp_diagnose::{diagnose, DiagnoseOptions};
+use zmp_diagnose::run::Subject;
+use zmp_diagnose::{diagnose, DiagnoseOptions, Verdict};
 use zmp_models::logspace;
 use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding, EffectInstance};
@@ -74,7 +75,7 @@ fn model_channels_must_match_the_campaign() {
 fn clean_data_is_none_and_json_keeps_the_spec_fields() {
     let camp = simulate_campaign(&paper(), &design(logspace(0.5, 15.0, 6))).unwrap();
     let d = diagnose(&camp, &paper(), &opts(), &|_| {}).unwrap();
-    assert_eq!(d.verdict, "none", "{}", d.to_text());
+    assert_eq!(d.verdict, Verdict::None, "{}", d.to_text());
     let j = d.to_json();
     assert_eq!(j["format"], "zmp-diagnosis/1");
     for k in [
@@ -105,9 +106,9 @@ fn an_effect_outside_the_catalogue_is_unexplained() {
     let d = diagnose(&camp, &paper(), &opts(), &|_| {}).unwrap();
     println!("{}", d.to_text());
     assert!(d.baseline_error > 3.0 * d.noise_floor);
-    assert_eq!(d.verdict, "unexplained", "{}", d.to_text());
+    assert_eq!(d.verdict, Verdict::Unexplained, "{}", d.to_text());
     let f = &d.findings[0];
-    assert_eq!(f.effect, "unexplained");
+    assert_eq!(f.effect, Subject::Unexplained);
     assert!(f.channels.iter().any(|c| c == "G11"), "{:?}", f.channels);
     assert!(!f.remaining.is_empty());
 }

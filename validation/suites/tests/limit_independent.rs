@@ -31,21 +31,3 @@ fn the_limit_search_finds_the_deep_valley() {
         "limit {limit:.4} m/s2 against the drawn {drawn_limit:.4}"
     );
 }
-
-#[test]
-#[ignore = "long: a loop on one draw of the independent simulator (minutes); `cargo xtask ci --long` runs it"]
-fn the_loop_then_names_the_friction_and_explains_the_data() {
-    let r = indep_loop::loop_on(SEED, SCENARIO);
-    assert_eq!(
-        r.found.first().map(String::as_str),
-        Some("coulomb_friction"),
-        "found {:?}",
-        r.found
-    );
-    assert!(
-        r.explained,
-        "final {:.2}x the floor",
-        r.final_error / r.noise_floor
-    );
-    assert!(r.final_error <= 1.5 * r.noise_floor);
-}

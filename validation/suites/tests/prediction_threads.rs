@@ -5,9 +5,9 @@
 //! (the instruction-count benches ask for one thread and count only the thread they run on).
 
 use zmp_campaign::par::{budget, parallel_map, with_deadline, with_threads};
-use zmp_diagnose::candidates::add_effect;
 use zmp_diagnose::measure::{predict, predict_in_time, predict_until};
 use zmp_diagnose::observe::Observation;
+use zmp_diagnose::profiles::add_effect;
 use zmp_diagnose::run::observe_campaign;
 use zmp_models::logspace;
 use zmp_models::EffectKind;

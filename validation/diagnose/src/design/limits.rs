@@ -22,8 +22,8 @@
 //!     campaign demanded of that axis and within an identified acceleration limit: the
 //!     design respects the limit, it does not probe it.
 
-use crate::candidates::servo_params_of;
 use crate::observe::Observation;
+use crate::profiles::servo_of as servo_params_of;
 use num_complex::Complex64;
 use zmp_campaign::Campaign;
 use zmp_models::{Axis, Binding, EffectKind, ModelSpec};
@@ -259,7 +259,7 @@ pub fn demand(spec: &ModelSpec, axis: Axis, omega: f64, amplitude: f64) -> f64 {
 impl Limits {
     /// The limits for `rivals` on the campaign (`obs`, its records for the ZMP centres).
     pub fn of(campaign: &Campaign, obs: &[&Observation], rivals: &[&ModelSpec]) -> Limits {
-        let omegas: Vec<f64> = crate::engine::distinct_omegas(obs);
+        let omegas: Vec<f64> = crate::criterion::distinct_omegas(obs);
         let (lo, hi) = (omegas[0], omegas[omegas.len() - 1]);
         let servo_omega_n = rivals
             .iter()

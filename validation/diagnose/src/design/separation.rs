@@ -5,10 +5,10 @@
 
 use super::limits::{Candidate, RecordTiming};
 use super::noise::NoiseModel;
-use crate::candidates::Free;
-use crate::engine::{fit_structure, refit_frees, Fitted};
+use crate::fit::{all_frees, fit_lm, Fit as Fitted, Free, ITERS_JOINT};
 use crate::measure::{chi2, predict, Prediction};
 use crate::observe::{mark_third_band, Observation};
+use crate::profiles::DataRange;
 use num_complex::Complex64;
 use zmp_models::ModelSpec;
 
@@ -124,7 +124,7 @@ pub fn refit(
     let refs: Vec<&Observation> = set.iter().collect();
     let mut starts = vec![(pair.spec.clone(), pair.frees.clone())];
     if let Some(s) = also_from {
-        starts.push((s.clone(), refit_frees(s, &[])));
+        starts.push((s.clone(), refit_frees(s, &refs)));
     }
     let best = starts
         .iter()
@@ -151,14 +151,24 @@ pub fn refit(
 const ROUNDS: usize = 4;
 const ROUND_GAIN: f64 = 0.01;
 
+/// Every parameter the diagnosis's joint fit of `spec` moves, bounded for the records `obs`.
+pub(crate) fn refit_frees(spec: &ModelSpec, obs: &[&Observation]) -> Vec<Free> {
+    all_frees(spec, &DataRange::of(obs))
+}
+
+/// The diagnosis's joint fit of `frees` (one optimiser: `fit::fit_lm`).
+fn fit_structure(spec: &ModelSpec, frees: &[Free], refs: &[&Observation]) -> Option<Fitted> {
+    fit_lm(spec, frees, refs, ITERS_JOINT, 0)
+}
+
 /// [`fit_structure`] repeated from its own result while it descends (see [`ROUNDS`]).
 fn converged(spec: &ModelSpec, frees: &[Free], refs: &[&Observation]) -> Option<Fitted> {
-    let mut best = fit_structure(spec, frees, 0, refs)?;
+    let mut best = fit_structure(spec, frees, refs)?;
     for _ in 1..ROUNDS {
         if best.cost < NESTED_CHI2 {
             break;
         }
-        match fit_structure(&best.spec, &best.frees, 0, refs) {
+        match fit_structure(&best.spec, &best.frees, refs) {
             Some(f) if f.cost < (1.0 - ROUND_GAIN) * best.cost => best = f,
             Some(f) if f.cost < best.cost => {
                 best = f;
@@ -173,9 +183,9 @@ fn converged(spec: &ModelSpec, frees: &[Free], refs: &[&Observation]) -> Option<
 /// `spec` with every parameter it shares with `truth` (same effect, binding and name) at the
 /// truth's value: a start from which a rival that nests the truth has only its own extra
 /// parameters to move (a delay to zero), not a whole fit to travel along with them.
-fn at_truth(spec: &ModelSpec, truth: &ModelSpec) -> ModelSpec {
+fn at_truth(spec: &ModelSpec, truth: &ModelSpec, obs: &[&Observation]) -> ModelSpec {
     let mut out = spec.clone();
-    for f in refit_frees(spec, &[]) {
+    for f in refit_frees(spec, obs) {
         for b in &f.bindings {
             if let Some(v) = truth.value(f.kind, *b, f.param) {
                 if (f.bounds.min..=f.bounds.max).contains(&v) {
@@ -197,18 +207,20 @@ pub fn start(
     truth_spec: &ModelSpec,
     campaign: &[Observation],
 ) -> Option<Pair> {
+    let refs: Vec<&Observation> = campaign.iter().collect();
     let pair = Pair {
         truth,
         rival,
         spec: spec.clone(),
-        frees: refit_frees(spec, &[]),
+        frees: refit_frees(spec, &refs),
         campaign: 0.0,
         total: 0.0,
         added: 0.0,
         nested: false,
     };
     let set = record_set(campaign, &[]);
-    let fitted = refit(&pair, &set, set.len(), Some(&at_truth(spec, truth_spec)))?;
+    let from_truth = at_truth(spec, truth_spec, &refs);
+    let fitted = refit(&pair, &set, set.len(), Some(&from_truth))?;
     Some(Pair {
         campaign: fitted.total,
         ..fitted

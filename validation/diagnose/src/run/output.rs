@@ -1,8 +1,10 @@
 //! The diagnosis as the `zmp-diagnosis/1` JSON document and in words.
 
 use super::{Diagnosis, DIAGNOSIS_FORMAT};
-use crate::candidates::CATALOGUE;
 use crate::cells::Cell;
+use crate::criterion::ALPHA;
+use crate::profiles::catalogue_names;
+use crate::structure::Verdict;
 use serde_json::{json, Value};
 
 impl Diagnosis {
@@ -21,11 +23,20 @@ impl Diagnosis {
             "skipped": self.skipped.iter().map(|(k, r)| json!({"record": k, "reason": r})).collect::<Vec<_>>(),
             "refit_error": self.refit_error,
             "final_error": self.final_error,
-            "selected": self.selected.iter().map(|(e, x)| json!({"effect": e, "error_after": x})).collect::<Vec<_>>(),
-            "tried": self.tried.iter().map(|(e, x)| json!({"effect": e, "held_out_error": x})).collect::<Vec<_>>(),
+            "explained": self.explained,
+            "selected": self.selected.iter().map(|(c, x)| json!({"effect": c.name(), "structure": c.label(), "error_after": x})).collect::<Vec<_>>(),
+            "set": self.alternatives,
+            "residual": self.residual,
+            "criterion": {
+                "statistic": "z = (held-out chi2(B) - chi2(A)) / (2 sqrt(c) |r_B - r_A|): Cox's test of two structures on their held-out predictions, c the best structure's mismatch factor",
+                "alpha": ALPHA,
+                "structures_compared": self.compared,
+                "z_threshold": self.z_crit,
+            },
+            "tried": self.tried,
             "where_it_fails": self.cells.iter().filter(|c| c.significant).take(12).collect::<Vec<_>>(),
             "time_limit_reached": self.time_limit_reached,
-            "catalogue": CATALOGUE.iter().map(|c| c.effect).collect::<Vec<_>>(),
+            "catalogue": catalogue_names(),
         })
     }
 
@@ -45,29 +56,34 @@ impl Diagnosis {
             }
         ));
         s.push_str(&format!(
-            "  error {:.4} ({:.1}x the noise floor {:.4})",
+            "  error {:.4} ({:.1}x the noise floor {:.4}); with its own parameters refitted: \
+             {:.4} (held-out)\n",
             self.baseline_error,
             self.baseline_error / f,
             f,
+            self.refit_error
         ));
-        // No refit when the model already explains the data.
-        if self.refit_error.is_finite() {
-            s.push_str(&format!(
-                "; with the pendulum and bandwidth refitted: {:.4} (held-out)",
-                self.refit_error
-            ));
-        }
-        s.push('\n');
-        let verdict = match self.verdict.as_str() {
-            "none" => "none: the model explains the data to the noise floor".to_string(),
-            "unexplained" => {
-                "unexplained: a significant error remains that no catalogued effect removes"
+        s.push_str(&format!(
+            "  {} structures compared; significant at z > {:.2} ({} % shared over them)\n",
+            self.compared,
+            self.z_crit,
+            ALPHA * 100.0
+        ));
+        let verdict = match &self.verdict {
+            Verdict::None => "none: the model explains the data to the noise floor".to_string(),
+            Verdict::Unexplained => {
+                "unexplained: a significant error remains that no structure of the catalogue \
+                 removes"
                     .to_string()
             }
-            "parameter_refit" => {
+            Verdict::Refit => {
                 "parameter_refit: the structure is right, the parameters are off".to_string()
             }
-            e => format!("{e} is missing from the model"),
+            Verdict::Ambiguous(set) => format!(
+                "ambiguous: the records do not decide between {}",
+                set.iter().map(|x| x.label()).collect::<Vec<_>>().join(", ")
+            ),
+            Verdict::Effect(c) => format!("{c} is missing from the model"),
         };
         s.push_str(&format!("Verdict: {verdict}\n"));
         if self.time_limit_reached {
@@ -78,20 +94,41 @@ impl Diagnosis {
         }
         for (k, fd) in self.findings.iter().enumerate() {
             s.push_str(&format!(
-                "{}. {}{} [{}]: error {:.4} -> {:.4}{}\n     {}\n",
+                "{}. {} [{}]: error {:.4} -> {:.4}{}\n     {}\n",
                 k + 1,
                 fd.effect,
-                if fd.significant {
-                    ""
-                } else {
-                    " (not significant)"
-                },
                 fd.channels.join(", "),
                 fd.error_before,
                 fd.error_after,
                 if fd.held_out { " (held-out)" } else { "" },
                 fd.evidence
             ));
+        }
+        if self.alternatives.len() > 1 {
+            s.push_str("What the data cannot decide between (best first):\n");
+            for a in &self.alternatives {
+                let params: Vec<String> = a
+                    .parameters
+                    .iter()
+                    .map(|(n, v)| format!("{n} = {}", crate::words::sig(*v)))
+                    .collect();
+                s.push_str(&format!(
+                    "  - {}: held-out error {:.1}x the floor, z from the best {:.1}; {}\n",
+                    a.structure,
+                    a.held_out_error / f,
+                    a.z_from_best,
+                    params.join(", ")
+                ));
+                if let Some(d) = &a.distinguished {
+                    s.push_str(&format!("    {}\n", d.words));
+                }
+            }
+        }
+        if !self.residual.is_empty() {
+            s.push_str("What the final model leaves:\n");
+            for r in &self.residual {
+                s.push_str(&format!("  - {}\n", r.words));
+            }
         }
         let bad: Vec<&Cell> = self
             .cells

@@ -3,16 +3,15 @@
 //! an unexplained residual ([`LoopVerdict`]); and what a drawn effect outside the catalogue
 //! should be described as ([`expected_words`]).
 
-use zmp_diagnose::iterate::LoopResult;
+use zmp_diagnose::iterate::{LoopResult, Outcome};
 use zmp_indep_sim::Effect;
 
 /// The most structures an `ambiguous` verdict may name and still count: a set larger than this
 /// says little about the robot.
 pub const MAX_SET: usize = 3;
 
-/// How a loop ended, as the suite scores it. Today's loop gives the first two; the diagnosis
-/// that says what the data cannot decide (issue 55) gives the set and the words too, by
-/// implementing the last two for its result.
+/// How a loop ended, as the suite scores it: the effects it added, whether it explains the
+/// records, the set it could not decide between, and the words for what is left.
 pub trait LoopVerdict {
     /// The effects the loop added to the identified model (those of its best structure), by
     /// catalogue name, in order.
@@ -37,6 +36,21 @@ impl LoopVerdict for LoopResult {
     }
     fn explained(&self) -> bool {
         self.explained
+    }
+    fn ambiguous_set(&self) -> Option<Vec<Vec<String>>> {
+        (self.outcome == Outcome::Ambiguous).then(|| self.set.clone())
+    }
+    fn residual_features(&self) -> Option<Vec<ResidualFeature>> {
+        if self.explained {
+            return None;
+        }
+        let last = self.diagnoses.last()?;
+        let features: Vec<ResidualFeature> = last
+            .residual
+            .iter()
+            .filter_map(|f| ResidualFeature::parse(f.feature))
+            .collect();
+        (!features.is_empty()).then_some(features)
     }
 }
 

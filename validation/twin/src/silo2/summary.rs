@@ -161,23 +161,27 @@ pub struct Summary {
 
 /// The diagnosis `d`, in short; `final_model` is where its final model was written.
 pub fn summarise_diagnosis(d: &Diagnosis, final_model: Option<PathBuf>) -> DiagnosisSummary {
-    let selected: Vec<String> = d.selected.iter().map(|(e, _)| e.clone()).collect();
+    let selected: Vec<(String, f64)> = d
+        .selected
+        .iter()
+        .map(|(c, e)| (c.name().to_string(), *e))
+        .collect();
     let parameters = d
         .findings
         .iter()
-        .filter(|f| selected.contains(&f.effect))
+        .filter(|f| matches!(f.effect, zmp_diagnose::run::Subject::Effect(_)))
         .flat_map(|f| f.parameters.iter().map(|(k, v)| (k.clone(), *v)))
         .collect();
     DiagnosisSummary {
-        verdict: d.verdict.clone(),
+        verdict: d.verdict.to_string(),
         noise_floor: d.noise_floor,
         baseline_error: d.baseline_error,
         final_error: d.final_error,
-        selected: d.selected.clone(),
+        selected,
         findings: d
             .findings
             .iter()
-            .map(|f| (f.effect.clone(), f.significant, f.evidence.clone()))
+            .map(|f| (f.effect.to_string(), f.significant, f.evidence.clone()))
             .collect(),
         parameters,
         final_model,

@@ -313,7 +313,7 @@ fn build(opts: &ValidateOptions, dir: &Path, started: Instant) -> Result<Summary
     let final_model = if diag.selected.is_empty() {
         None
     } else {
-        let names: Vec<&str> = diag.selected.iter().map(|(e, _)| e.as_str()).collect();
+        let names: Vec<&str> = diag.selected.iter().map(|(c, _)| c.name()).collect();
         let file = PathBuf::from(format!("identified+{}.toml", names.join("+")));
         zmp_files::write_file(
             &dir.join(&file),

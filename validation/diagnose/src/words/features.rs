@@ -2,17 +2,16 @@
 //! modelled response per record, phase slopes (unwrapped), medians per frequency, the contrast
 //! between small and large sines, the line the operating points lie on.
 
-use super::super::candidates::servo_params_of;
-use super::super::measure::Prediction;
-use super::super::observe::Observation;
+use crate::measure::Prediction;
+use crate::observe::Observation;
+use crate::profiles::servo_of as servo_params_of;
 use num_complex::Complex64;
-use std::collections::BTreeMap;
 use zmp_models::effects::tracking_lowpass::TrackingLowpass;
 use zmp_models::EffectKind;
 use zmp_models::{Binding, ModelSpec};
 
 /// Measured over modelled first harmonic of the excited input's own output, per record.
-pub(super) fn ratios(obs: &[&Observation], base: &[Prediction]) -> Vec<(usize, Complex64)> {
+pub fn ratios(obs: &[&Observation], base: &[Prediction]) -> Vec<(usize, Complex64)> {
     obs.iter()
         .zip(base)
         .enumerate()
@@ -75,7 +74,7 @@ pub fn phase_words(slope: f64, r2: f64) -> &'static str {
     }
 }
 
-pub(super) fn median(mut v: Vec<f64>) -> f64 {
+pub fn median(mut v: Vec<f64>) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }
@@ -99,10 +98,9 @@ pub fn clamped(spec: &ModelSpec, o: &Observation) -> bool {
 /// axis, frequency and operating point): `(small, its ratio, large, its ratio)` from the
 /// measured-over-model ratios `r`; empty when the campaign has one amplitude. Pairs whose large
 /// sine `spec`'s force limit clamps ([`clamped`]) are left out: there the ratio weighs the
-/// model's saturation law against the robot's, not the small sine against the large one (held-
-/// out draw 1160031, a play of 0.3 mm: every pair below 15 rad/s showed the play's extra lag,
-/// 0.04-0.06 rad, and the three clamped 8 mm pairs at 15 rad/s, with a tenth of their noise, a
-/// small sine responding 2-5 % more, which outweighed them).
+/// model's saturation law against the robot's, not the small sine against the large one; and a
+/// clamped large sine, with a high response, has a small relative noise, so a few such pairs
+/// would outweigh every unclamped pair in the weighted contrast.
 fn amplitude_pairs(
     obs: &[&Observation],
     r: &[(usize, Complex64)],
@@ -138,7 +136,7 @@ fn amplitude_pairs(
 /// Mean gain of the smallest amplitude over the largest, for records that differ only in
 /// amplitude (the large one not clamped by `spec`'s force limit), and the mean extra phase lag
 /// (deg); `None` without such pairs.
-pub(super) fn amplitude_contrast(
+pub fn amplitude_contrast(
     obs: &[&Observation],
     r: &[(usize, Complex64)],
     spec: &ModelSpec,
@@ -187,16 +185,13 @@ pub struct AmplitudeDependence {
     pub std_error: f64,
 }
 
-/// Standard errors an amplitude dependence must reach to be taken as shown by the data (five:
-/// the standard error counts the noise only, and the models' own small misfits, not noise,
-/// decide such contrasts in low-noise records).
-pub const AMPLITUDE_Z: f64 = 5.0;
-
 impl AmplitudeDependence {
     /// Whether the data show the small amplitude responding less or later than the large one
-    /// (what play and friction do) beyond [`AMPLITUDE_Z`] standard errors.
+    /// (what play and friction do) at the diagnosis's significance level (one-sided, either
+    /// the gain or the lag: [`crate::criterion::ALPHA`] shared by the two).
     pub fn shown(&self) -> bool {
-        -self.log_gain >= AMPLITUDE_Z * self.std_error || self.lag >= AMPLITUDE_Z * self.std_error
+        let z = crate::criterion::z_one_sided(crate::criterion::ALPHA / 2.0);
+        -self.log_gain >= z * self.std_error || self.lag >= z * self.std_error
     }
 }
 
@@ -243,10 +238,10 @@ pub fn amplitude_dependence_shown(d: &[Option<AmplitudeDependence>; 2]) -> Optio
     (!known.is_empty()).then(|| known.iter().any(|a| a.shown()))
 }
 
-pub(super) fn axes_of(params: &BTreeMap<String, (f64, f64)>) -> String {
+pub fn axes_of(params: &[(String, f64, f64)]) -> String {
     let mut v: Vec<String> = params
         .iter()
-        .map(|(k, (val, err))| {
+        .map(|(k, val, err)| {
             let short = k.split_once('.').map_or(k.as_str(), |x| x.1);
             if err.is_finite() {
                 format!("{short} = {} ± {:.2e}", sig(*val), err)
@@ -262,7 +257,7 @@ pub(super) fn axes_of(params: &BTreeMap<String, (f64, f64)>) -> String {
 /// The unit direction of the line the campaign's operating points lie on, when there are at
 /// least two distinct ones and all lie on one line (within 1 % of their spread); `None` when
 /// they span the plane (then the x and y slopes are determined apart).
-pub(super) fn op_line(obs: &[&Observation]) -> Option<[f64; 2]> {
+pub fn op_line(obs: &[&Observation]) -> Option<[f64; 2]> {
     let first = obs.first()?.operating_point;
     let d: Vec<[f64; 2]> = obs
         .iter()
@@ -291,7 +286,7 @@ pub(super) fn op_line(obs: &[&Observation]) -> Option<[f64; 2]> {
 }
 
 /// `(frequency, median of values)` per distinct frequency (within 1e-9 relative), ascending.
-pub(super) fn median_by_frequency(w: &[f64], v: &[f64]) -> Vec<(f64, f64)> {
+pub fn median_by_frequency(w: &[f64], v: &[f64]) -> Vec<(f64, f64)> {
     let mut idx: Vec<usize> = (0..w.len().min(v.len())).collect();
     idx.sort_by(|&a, &b| w[a].total_cmp(&w[b]));
     let mut out = Vec::new();
@@ -450,7 +445,7 @@ mod tests {
 
     /// A pair whose large sine the model's force limit clamps says how the model's saturation
     /// law differs from the robot's, not how the small sine differs from the large one: it is
-    /// left out of the contrast (held-out draw 1160031).
+    /// left out of the contrast.
     #[test]
     fn the_contrast_leaves_out_pairs_whose_large_sine_the_force_limit_clamps() {
         // Below 8 rad/s the 3 mm sines lag 3 degrees (1 % noise); at 8 rad/s, where the
@@ -481,7 +476,7 @@ mod tests {
         // A limit of 0.3 m/s2 on x clamps the 8 mm sine at 8 rad/s only (0.128 m/s2 at
         // 4 rad/s): the four other pairs show the lag.
         let mut limited = paper();
-        crate::candidates::add_effect(
+        crate::profiles::add_effect(
             &mut limited,
             EffectKind::AccelerationSaturation,
             &[zmp_models::Binding::Axis(zmp_models::Axis::X)],
@@ -494,7 +489,7 @@ mod tests {
         assert!(d.shown(), "{d:?}");
         // A limit on y leaves the x pairs alone.
         let mut other = paper();
-        crate::candidates::add_effect(
+        crate::profiles::add_effect(
             &mut other,
             EffectKind::AccelerationSaturation,
             &[zmp_models::Binding::Axis(zmp_models::Axis::Y)],

@@ -1,0 +1,370 @@
+//! The one criterion of the diagnosis.
+//!
+//! **Held-out chi-square.** The records are split into two folds by frequency ([`folds`]); a
+//! structure is fitted on each fold and predicts the other, so every record has a chi-square
+//! from a model that was not fitted on it (`chi2_k`, about its component count for a right
+//! model; overfitting only raises it, so no per-parameter penalty is needed).
+//!
+//! **The comparison** ([`compare`]) of two structures A and B is the likelihood ratio of their
+//! held-out predictions, `D = chi2(B) - chi2(A)` (both summed over the records), against its
+//! spread under the noise. With `r_A`, `r_B` the two residual vectors (each component over its
+//! noise), `D = 2 r_A . delta + |delta|^2` with `delta = r_B - r_A` the distance between the
+//! two predictions in noise standard deviations: if A is right, `D` is `|delta|^2` on average
+//! with standard deviation `2 |delta|`; if B is right, `-|delta|^2`. So
+//!
+//! ```text
+//! z = (chi2(B) - chi2(A)) / (2 sqrt(c) |r_B - r_A|)
+//! ```
+//!
+//! and A is significantly better than B when `z > z_(1 - alpha/m)`: the standard normal
+//! quantile at the significance level [`ALPHA`] shared over the `m` structures a search
+//! compares (Bonferroni: the chance that any structure passes on noise alone is at most
+//! `ALPHA`). `c >= 1` is the mismatch factor, the best structure's held-out chi-square per
+//! component: where even the best model leaves more than the noise, its residual counts as
+//! noise of that size (quasi-likelihood, McCullagh and Nelder). This is Cox's test of two
+//! hypotheses, nested (a structure and itself with one more effect) or not (a play against a
+//! friction), for Gaussian noise of known variance. Two structures whose predictions on the
+//! campaign differ by less than `2 sqrt(c) z` standard deviations in all can never be
+//! separated by it: the records do not decide between them, and new records where they part
+//! would (`words::distinguish`).
+
+use crate::measure::{aggregate, predict, score, whitened, RecordScore};
+use crate::observe::Observation;
+use zmp_models::ModelSpec;
+
+/// The significance level of every decision of the diagnosis.
+pub const ALPHA: f64 = 0.01;
+
+/// The two folds: `fold[k]` is true for records in the second one. At each frequency the
+/// records, ordered by excited axis, amplitude and operating point, alternate between the
+/// folds, the first of them alternating with the frequency: each fold holds every frequency,
+/// amplitude and axis once the campaign has two records per frequency, and an effect acting on
+/// a few records (saturation on the fastest, largest) is fitted on some and judged on others.
+pub fn folds(obs: &[&Observation]) -> Vec<bool> {
+    let omegas = distinct_omegas(obs);
+    let mut fold = vec![false; obs.len()];
+    for (q, w) in omegas.iter().enumerate() {
+        let mut at: Vec<usize> = (0..obs.len())
+            .filter(|&k| (obs[k].omega - w).abs() <= 1e-9 * w.abs())
+            .collect();
+        at.sort_by(|&a, &b| {
+            let (x, y) = (obs[a], obs[b]);
+            x.excited
+                .index()
+                .cmp(&y.excited.index())
+                .then(x.nominal_amplitude.total_cmp(&y.nominal_amplitude))
+                .then(x.operating_point[0].total_cmp(&y.operating_point[0]))
+                .then(x.operating_point[1].total_cmp(&y.operating_point[1]))
+                .then(a.cmp(&b))
+        });
+        for (r, &k) in at.iter().enumerate() {
+            fold[k] = (r + q) % 2 == 1;
+        }
+    }
+    fold
+}
+
+/// The records of fold `f` (0 or 1) and those of the other.
+pub fn split<'a>(obs: &[&'a Observation], f: usize) -> (Vec<&'a Observation>, Vec<usize>) {
+    let fold = folds(obs);
+    let train = (0..obs.len())
+        .filter(|&k| fold[k] == (f == 1))
+        .map(|k| obs[k])
+        .collect();
+    let test = (0..obs.len()).filter(|&k| fold[k] != (f == 1)).collect();
+    (train, test)
+}
+
+/// The distinct excitation frequencies, ascending.
+pub fn distinct_omegas(obs: &[&Observation]) -> Vec<f64> {
+    let mut omegas: Vec<f64> = obs.iter().map(|o| o.omega).collect();
+    omegas.sort_by(f64::total_cmp);
+    omegas.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * b.abs());
+    omegas
+}
+
+/// A structure's records scored by models not fitted on them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeldOut {
+    /// Per record (observation order): its residual components over their noise
+    /// (`measure::whitened`), their chi-square and the error measure.
+    pub residuals: Vec<Vec<f64>>,
+    pub chi2s: Vec<f64>,
+    pub scores: Vec<RecordScore>,
+    /// Their sum, and the campaign's error (RMS over records).
+    pub chi2: f64,
+    pub error: f64,
+}
+
+impl HeldOut {
+    /// The held-out scores of two fold fits: `fits[f]` fitted on fold `f`'s records predicts
+    /// the others. `None` when a prediction fails.
+    pub fn of(fits: [&ModelSpec; 2], obs: &[&Observation]) -> Option<HeldOut> {
+        let mut chi2s = vec![f64::NAN; obs.len()];
+        let mut residuals = vec![Vec::new(); obs.len()];
+        let mut scores = vec![
+            RecordScore {
+                error2: f64::NAN,
+                floor2: f64::NAN
+            };
+            obs.len()
+        ];
+        for (f, spec) in fits.iter().enumerate() {
+            let (_, test) = split(obs, f);
+            let recs: Vec<&Observation> = test.iter().map(|&k| obs[k]).collect();
+            let p = predict(spec, &recs).ok()?;
+            for ((&k, o), pr) in test.iter().zip(&recs).zip(&p) {
+                whitened(o, pr, &mut residuals[k]);
+                chi2s[k] = residuals[k].iter().map(|x| x * x).sum();
+                scores[k] = score(o, pr);
+            }
+        }
+        let complete =
+            chi2s.iter().all(|c| c.is_finite()) && scores.iter().all(|s| s.error2.is_finite());
+        complete.then(|| HeldOut {
+            chi2: chi2s.iter().sum(),
+            error: aggregate(&scores).0,
+            residuals,
+            chi2s,
+            scores,
+        })
+    }
+
+    /// Residual components in all.
+    pub fn components(&self) -> usize {
+        self.residuals.iter().map(|r| r.len()).sum()
+    }
+
+    /// Its mismatch factor: held-out chi-square per component, at least 1.
+    pub fn mismatch(&self) -> f64 {
+        (self.chi2 / self.components().max(1) as f64).max(1.0)
+    }
+}
+
+/// The likelihood ratio of two structures' held-out predictions against its noise.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Comparison {
+    /// `chi2(B) - chi2(A)`: positive where A predicts the held-out records better.
+    pub difference: f64,
+    /// `|r_B - r_A|`: how far apart the two predictions are, in noise standard deviations.
+    pub distance: f64,
+    /// `difference / (2 sqrt(c) distance)` (0 for identical predictions).
+    pub z: f64,
+}
+
+impl Comparison {
+    /// Whether A is significantly better than B at threshold `z_crit` ([`threshold`]).
+    pub fn better(&self, z_crit: f64) -> bool {
+        self.z > z_crit
+    }
+}
+
+/// The criterion: A (`a`) against B (`b`) on the same records, with mismatch factor `c`.
+pub fn compare(a: &HeldOut, b: &HeldOut, c: f64) -> Comparison {
+    let difference = b.chi2 - a.chi2;
+    let distance = a
+        .residuals
+        .iter()
+        .zip(&b.residuals)
+        .flat_map(|(x, y)| x.iter().zip(y).map(|(p, q)| (q - p) * (q - p)))
+        .sum::<f64>()
+        .sqrt();
+    let z = if distance > 0.0 {
+        difference / (2.0 * c.max(1.0).sqrt() * distance)
+    } else {
+        0.0
+    };
+    Comparison {
+        difference,
+        distance,
+        z,
+    }
+}
+
+/// The threshold of a search comparing `m` structures: the one-sided standard normal quantile
+/// at [`ALPHA`]` / m`.
+pub fn threshold(m: usize) -> f64 {
+    z_one_sided(ALPHA / m.max(1) as f64)
+}
+
+/// The standard normal quantile exceeded with probability `p` (`z` with `P(Z > z) = p`).
+pub fn z_one_sided(p: f64) -> f64 {
+    -normal_quantile(p)
+}
+
+/// The standard normal quantile function (Acklam's rational approximation, relative error
+/// below 1.2e-9 on (0, 1)).
+pub fn normal_quantile(p: f64) -> f64 {
+    const A: [f64; 6] = [
+        -3.969_683_028_665_376e1,
+        2.209_460_984_245_205e2,
+        -2.759_285_104_469_687e2,
+        1.383_577_518_672_69e2,
+        -3.066_479_806_614_716e1,
+        2.506_628_277_459_239,
+    ];
+    const B: [f64; 5] = [
+        -5.447_609_879_822_406e1,
+        1.615_858_368_580_409e2,
+        -1.556_989_798_598_866e2,
+        6.680_131_188_771_972e1,
+        -1.328_068_155_288_572e1,
+    ];
+    const C: [f64; 6] = [
+        -7.784_894_002_430_293e-3,
+        -3.223_964_580_411_365e-1,
+        -2.400_758_277_161_838,
+        -2.549_732_539_343_734,
+        4.374_664_141_464_968,
+        2.938_163_982_698_783,
+    ];
+    const D: [f64; 4] = [
+        7.784_695_709_041_462e-3,
+        3.224_671_290_700_398e-1,
+        2.445_134_137_142_996,
+        3.754_408_661_907_416,
+    ];
+    let p = p.clamp(1e-300, 1.0 - 1e-16);
+    let tail = |q: f64| {
+        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5])
+            / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
+    };
+    if p < 0.02425 {
+        tail((-2.0 * p.ln()).sqrt())
+    } else if p > 1.0 - 0.02425 {
+        -tail((-2.0 * (1.0 - p).ln()).sqrt())
+    } else {
+        let q = p - 0.5;
+        let r = q * q;
+        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q
+            / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
+    }
+}
+
+/// The chi-square quantile with `nu` degrees of freedom exceeded with probability `p`
+/// (Wilson-Hilferty: within 1 % of the exact quantile from `nu = 3` at `p = 0.01`).
+pub fn chi2_quantile(nu: f64, p: f64) -> f64 {
+    let h = 2.0 / (9.0 * nu);
+    nu * (1.0 - h + z_one_sided(p) * h.sqrt()).powi(3).max(0.0)
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// A held-out result of residual vectors (one component per record).
+    fn held(r: Vec<f64>) -> HeldOut {
+        HeldOut {
+            chi2: r.iter().map(|x| x * x).sum(),
+            error: 0.0,
+            scores: Vec::new(),
+            chi2s: r.iter().map(|x| x * x).collect(),
+            residuals: r.into_iter().map(|x| vec![x]).collect(),
+        }
+    }
+
+    /// A deterministic standard normal sample (Box-Muller over a linear congruential
+    /// generator).
+    pub(crate) fn normals(n: usize, mut state: u64) -> Vec<f64> {
+        let mut u = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|_| (-2.0 * u().ln()).sqrt() * (2.0 * std::f64::consts::PI * u()).cos())
+            .collect()
+    }
+
+    /// The quantiles against tables: z at 5 %, 1 %, 0.1 %; the symmetric side; chi-square.
+    #[test]
+    fn the_thresholds_follow_the_significance_level() {
+        for (p, z) in [
+            (0.05, 1.644_853_6),
+            (0.01, 2.326_347_9),
+            (0.001, 3.090_232_3),
+        ] {
+            assert!((z_one_sided(p) - z).abs() < 1e-7, "{p}");
+            assert!((normal_quantile(1.0 - p) - z).abs() < 1e-7);
+        }
+        assert!((normal_quantile(0.5)).abs() < 1e-12);
+        // Shared over ten structures: the quantile at 0.1 %.
+        assert!((threshold(10) - 3.090_232_3).abs() < 1e-7);
+        assert!(threshold(100) > threshold(10) && threshold(10) > threshold(1));
+        // chi2(0.99; 6) = 16.81, chi2(0.99; 100) = 135.81.
+        assert!((chi2_quantile(6.0, 0.01) / 16.812 - 1.0).abs() < 0.01);
+        assert!((chi2_quantile(100.0, 0.01) / 135.807 - 1.0).abs() < 0.002);
+    }
+
+    /// A structure that adds only noise to its parent's predictions (here 400 parents and
+    /// children of 108 records, the child's predictions moved at random by half a standard
+    /// deviation) passes the 1 % threshold less than 1 % of the time (the statistic is at most
+    /// a standard normal deviate under noise, lower for a child that only adds noise); one that
+    /// removes a misfit from a few records passes whatever the other records do.
+    #[test]
+    fn a_structure_that_adds_only_noise_is_not_selected() {
+        let z = threshold(1);
+        let mut passed = 0;
+        for trial in 0..400u64 {
+            let noise = normals(108, 17 + trial);
+            let moved = normals(108, 1_000_003 + trial);
+            let parent = held(noise.clone());
+            let child = held(noise.iter().zip(&moved).map(|(e, m)| e + 0.5 * m).collect());
+            if compare(&child, &parent, 1.0).better(z) {
+                passed += 1;
+            }
+        }
+        // Binomial(400, 0.01) is at most 10 with probability above 99.9 %.
+        assert!(passed <= 10, "{passed} of 400 passed on noise alone");
+        // The parent misses 8 of 108 records by 6 standard deviations; the child does not.
+        let noise = normals(108, 5);
+        let miss: Vec<f64> = (0..108)
+            .map(|k| if k % 13 == 0 { 6.0 } else { 0.0 })
+            .collect();
+        let parent = held(noise.iter().zip(&miss).map(|(e, m)| e + m).collect());
+        let child = held(noise.clone());
+        let c = compare(&child, &parent, 1.0);
+        assert!(c.better(threshold(100)), "{c:?}");
+        // Twice the mismatch factor lowers the statistic by sqrt(2).
+        assert!((compare(&child, &parent, 2.0).z * 2f64.sqrt() - c.z).abs() < 1e-9);
+        // Identical predictions: no difference at any level, either way.
+        assert_eq!(compare(&parent, &parent, 1.0).z, 0.0);
+    }
+
+    /// The folds alternate at every frequency and over frequencies.
+    #[test]
+    fn each_fold_holds_every_frequency() {
+        use num_complex::Complex64;
+        let rec = |k: usize, omega: f64, amp: f64| Observation {
+            index: k,
+            excited: zmp_models::Axis::X,
+            omega,
+            operating_point: [0.0; 2],
+            nominal_amplitude: amp,
+            t0: 0.0,
+            t1: 1.0,
+            u1: Complex64::new(amp, 0.0),
+            y1: [Complex64::new(amp, 0.0); 2],
+            y1_var: [1e-10; 2],
+            y3: [Complex64::new(0.0, 0.0); 2],
+            y3_var: [1e-12; 2],
+            third_band: false,
+            slope: [0.0; 2],
+            slope_var: [1e-12; 2],
+            noise_std: [1e-4; 2],
+            samples: 100,
+        };
+        let v: Vec<Observation> = (0..8)
+            .map(|k| rec(k, [1.0, 2.0, 4.0, 8.0][k / 2], [0.003, 0.008][k % 2]))
+            .collect();
+        let refs: Vec<&Observation> = v.iter().collect();
+        assert_eq!(
+            folds(&refs),
+            vec![false, true, true, false, false, true, true, false]
+        );
+        let (train, test) = split(&refs, 1);
+        assert_eq!(train.len(), 4);
+        assert_eq!(test, vec![0, 3, 4, 7]);
+    }
+}
