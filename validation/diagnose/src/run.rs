@@ -132,7 +132,7 @@ pub struct Diagnosis {
 }
 
 /// Steady-state observations of every usable record (the identification's per-record
-/// analysis: steady state, harmonic fit with trend, noise colour), and the records left out
+/// analysis: steady state, harmonic fit with trend, noise from the periods), and the records left out
 /// with why.
 pub fn observe_campaign(
     campaign: &Campaign,
