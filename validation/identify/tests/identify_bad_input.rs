@@ -87,8 +87,8 @@ fn short_zero_and_constant_records_are_named() {
 
 /// The noise of a record from its periods (`noise`): a record with fewer than two whole
 /// periods of steady state is excluded and neither measures a noise nor receives one; one of
-/// exactly two periods measures its own with two degrees of freedom at most and receives the
-/// campaign's pooled noise at its frequency, with more.
+/// exactly two periods measures nothing of its own (a line through two periods' phasors
+/// leaves no variation) and receives the campaign's pooled noise at its frequency.
 #[test]
 fn a_record_of_two_periods_gets_the_pooled_noise_and_one_of_fewer_none() {
     let mut camp = small(logspace(0.5, 15.0, 8));
@@ -120,14 +120,10 @@ fn a_record_of_two_periods_gets_the_pooled_noise_and_one_of_fewer_none() {
     let c = two.components.as_ref().unwrap();
     for i in 0..2 {
         let own = c.noise[i].periods_first;
-        assert_eq!(own.source, NoiseSource::Own);
-        assert!(own.dof > 0.0 && own.dof <= 2.0, "{own:?}");
+        assert_eq!(own.source, NoiseSource::Unmeasured, "{own:?}");
         let first = c.noise[i].first;
         assert_eq!(first.source, NoiseSource::Pooled, "{first:?}");
-        assert!(
-            first.dof > 10.0 * own.dof,
-            "{first:?} against its own {own:?}"
-        );
+        assert!(first.dof > 20.0, "{first:?}");
         assert!(c.y1_var(i).is_finite() && c.y1_var(i) > 0.0);
         assert!(two.sigma[i].is_finite() && two.sigma[i] > 0.0);
     }

@@ -14,16 +14,17 @@
 //! records' period-to-period variation, pooled by frequency (`zmp_identify` `noise`); a record
 //! whose own variation is beyond the campaign's at 1 % (Bonferroni over the campaign) keeps
 //! its own, and is exempt from the upper bound: its response does not quite repeat, which the
-//! sensor's noise, the exact value here, does not see (these robots' sagittal output, excited
-//! with 8 mm, drifts: on seed 50 the first harmonic of record 102 at 1.76 rad/s moves by about
-//! 1.2 mm a period on 12 mm, on seed 43 that of record 34 at 9.8 rad/s by 1 mm over its 19
-//! periods). Each such record must vary beyond the simulator's exact noise: its own
+//! sensor's noise, the exact value here, does not see. Each such record must vary beyond the
+//! simulator's exact noise: its own
 //! period-to-period power over the exact power, a scaled chi-square of its degrees of freedom
 //! under the noise alone, beyond the one-sided 1 % point (Wilson and Hilferty's
 //! approximation). Before the bins next to the excitation were used, the records at 0.5-2 rad/s of
 //! these robots came out 2-4.5 times too small; when the floor was the residual variance
 //! times a pooled colour factor, the records of this test ended 0.75-2.3 times the exact
-//! value (median 0.99-1.06).
+//! value (median 0.99-1.06); with the periods compared with their mean rather than a line
+//! through them, 5-7 records a seed (the refined frequency a little off, the response's
+//! phasor turning from period to period) kept their own variance at 1.6-4.1 times the exact
+//! value.
 
 use std::f64::consts::PI;
 use zmp_campaign::read_campaign;

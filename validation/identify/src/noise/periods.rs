@@ -21,16 +21,34 @@
 //! varies slower than a period. At the two ends of the slice it is held at its first and last
 //! full window.
 //!
+//! **A line over the periods, not their mean.** What repeats gives every period the same
+//! phasor only at the true frequency. The residual is taken at the refined frequency, whose
+//! error (its one Newton step is pulled by the outputs' noise) leaves the response's phasor
+//! turning by `A dw T` per period: a linear drift over the periods, as a transient's last tail
+//! or a slow change of gain is. On the golden campaign of `xtask/tests/golden_json.rs` (SILO2
+//! with a delay, white noise 0.5 mm) frequencies refined 0.9-1.6e-3 rad/s off, on outputs of
+//! 22-69 mm, put the sample variance about the mean of three records at 4-7 times the noise,
+//! and those records were left out of the pool. The period phasors are therefore compared
+//! with a straight line through them (least squares over the period index), not with their
+//! mean: a drift linear in time is taken out, at the price of one degree of freedom per real
+//! component; a record of two periods measures nothing (and takes the pooled noise).
+//!
 //! **From the sample variance to the noise's power.** Everything above is linear in the
 //! residual: `X_p = v_p . e` with `v_p = (I - M)^T u_p` (`u_p` the projection's weights, `M`
-//! the moving average). Under a noise of power `S` per sample near the frequency the sample
-//! variance of one real component has expectation `S F`, `F = (tr G - 1'G1/P)/(P - 1)` with
-//! `G_pq = v_p . v_q` (neighbouring periods share the filter's window, so `G` is not
-//! diagonal); `S` is the summed sample variances of the sine and cosine parts over their
-//! summed `F`. Its degrees of freedom (Satterthwaite) are `(sum F)^2 / sum tr((A G)^2)`,
-//! `A = (I - 11'/P)/(P - 1)`: `2(P - 1)` when the periods are independent, somewhat fewer here.
+//! the moving average). Under a noise of power `S` per sample near the frequency the residual
+//! sum of squares about the line of one real component, over `P - 2`, has expectation `S F`,
+//! `F = tr(R G)/(P - 2)` with `G_pq = v_p . v_q` (neighbouring periods share the filter's
+//! window, so `G` is not diagonal) and `R = I - Q Q'` the projection off the line (`Q` the
+//! orthonormal constant and centred index over the periods); `S` is the summed sample
+//! variances of the sine and cosine parts over their summed `F`. Its degrees of freedom
+//! (Satterthwaite) are `(sum F)^2 / sum tr((A G)^2)`, `A = R/(P - 2)`: `2(P - 2)` when the
+//! periods are independent, somewhat fewer here.
 
 use std::f64::consts::PI;
+
+/// Whole periods a record needs to measure its own noise: a line through the periods' phasors
+/// takes two of them.
+pub(crate) const MIN_PERIODS: usize = 3;
 
 /// The noise one record's periods measure, per output: its power per sample (m^2) at the
 /// excitation and at three times it, with their degrees of freedom (the same for every output:
@@ -46,15 +64,15 @@ pub(crate) struct PeriodNoise<const S: usize> {
 /// The period-to-period noise of `S` residuals (signal after signal in `e`, `n` samples each,
 /// the slice's first sample at phase zero) of a record whose steady state, sampled at `dt`,
 /// is `periods` whole periods: each of `n / periods` samples, at the frequency
-/// [`window_frequency`]. `None` below two periods (no variation to measure) or when a period
-/// is too short to hold its phasors.
+/// [`window_frequency`]. `None` below three periods (two periods and a line through them
+/// leave no variation to measure) or when a period is too short to hold its phasors.
 pub(crate) fn period_noise<const S: usize>(
     e: &[f64],
     n: usize,
     dt: f64,
     periods: usize,
 ) -> Option<PeriodNoise<S>> {
-    if periods < 2 || e.len() < S * n {
+    if periods < MIN_PERIODS || e.len() < S * n {
         return None;
     }
     let per = n as f64 / periods as f64;
@@ -137,7 +155,8 @@ fn projection_weights(bounds: &[usize], omega: f64, dt: f64) -> [Vec<f64>; 4] {
     w
 }
 
-/// The four real components' sample variances over the periods of `h`.
+/// The four real components' sample variances about a straight line over the periods of `h`
+/// (residual sum of squares over `P - 2`).
 fn sample_variances(h: &[f64], bounds: &[usize], weights: &[Vec<f64>; 4]) -> [f64; 4] {
     let periods = bounds.len() - 1;
     let mut x = vec![[0.0f64; 4]; periods];
@@ -149,10 +168,37 @@ fn sample_variances(h: &[f64], bounds: &[usize], weights: &[Vec<f64>; 4]) -> [f6
             }
         }
     }
+    let q = line_basis(periods);
     std::array::from_fn(|c| {
-        let mean = x.iter().map(|v| v[c]).sum::<f64>() / periods as f64;
-        x.iter().map(|v| (v[c] - mean).powi(2)).sum::<f64>() / (periods - 1) as f64
+        let total: f64 = x.iter().map(|v| v[c] * v[c]).sum();
+        let fitted: f64 = q
+            .iter()
+            .map(|col| {
+                col.iter()
+                    .zip(&x)
+                    .map(|(a, v)| a * v[c])
+                    .sum::<f64>()
+                    .powi(2)
+            })
+            .sum();
+        (total - fitted).max(0.0) / (periods - 2) as f64
     })
+}
+
+/// The orthonormal basis of a straight line over `periods` periods: the constant and the
+/// centred period index, each of unit norm.
+pub(crate) fn line_basis(periods: usize) -> [Vec<f64>; 2] {
+    let pf = periods as f64;
+    let mid = (pf - 1.0) / 2.0;
+    let norm = (0..periods)
+        .map(|p| (p as f64 - mid).powi(2))
+        .sum::<f64>()
+        .sqrt()
+        .max(1e-300);
+    [
+        vec![1.0 / pf.sqrt(); periods],
+        (0..periods).map(|p| (p as f64 - mid) / norm).collect(),
+    ]
 }
 
 /// The moving average over exactly `per` samples (fractional at its ends), centred, held at
@@ -236,7 +282,8 @@ fn spread(u: &[f64], a: usize, b: usize, per: f64) -> (usize, Vec<f64>) {
 }
 
 /// The white-noise expectation and spread of one real component's sample variance, per unit
-/// noise power: `F = (tr G - 1'G1/P)/(P - 1)` and `tr((A G)^2)` (see the module docs).
+/// noise power: `F = tr(R G)/(P - 2)` and `tr((A G)^2)`, `A = R/(P - 2)` (see the module
+/// docs).
 #[derive(Debug, Clone, Copy)]
 struct Factor {
     mean: f64,
@@ -282,24 +329,36 @@ fn factor(u: &[f64], bounds: &[usize], per: f64) -> Factor {
             0.0
         }
     };
-    let pf = periods as f64;
-    let trace: f64 = (0..periods).map(|p| g[p][0]).sum();
-    let rows: Vec<f64> = (0..periods)
-        .map(|p| {
-            (p.saturating_sub(BAND)..(p + BAND + 1).min(periods))
-                .map(|q| entry(p, q))
-                .sum()
-        })
+    // With R = I - Q Q': tr(R G) = tr G - sum_k q_k' G q_k and
+    // tr((R G)^2) = tr(G^2) - 2 sum_k |G q_k|^2 + sum_kl (q_k' G q_l)^2.
+    let mul = |x: &[f64]| -> Vec<f64> {
+        (0..periods)
+            .map(|p| {
+                (p.saturating_sub(BAND)..(p + BAND + 1).min(periods))
+                    .map(|q| entry(p, q) * x[q])
+                    .sum()
+            })
+            .collect()
+    };
+    let dotv = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    let basis = line_basis(periods);
+    let gq: Vec<Vec<f64>> = basis.iter().map(|q| mul(q)).collect();
+    let qgq: Vec<Vec<f64>> = basis
+        .iter()
+        .map(|q| gq.iter().map(|g| dotv(q, g)).collect())
         .collect();
-    let total: f64 = rows.iter().sum();
+    let trace: f64 = (0..periods).map(|p| g[p][0]).sum();
     let frob: f64 = (0..periods)
         .flat_map(|p| (p.saturating_sub(BAND)..(p + BAND + 1).min(periods)).map(move |q| (p, q)))
         .map(|(p, q)| entry(p, q).powi(2))
         .sum();
-    let rows2: f64 = rows.iter().map(|r| r * r).sum();
+    let projected: f64 = (0..2).map(|k| qgq[k][k]).sum();
+    let leaked: f64 = gq.iter().map(|g| dotv(g, g)).sum();
+    let inner: f64 = qgq.iter().flatten().map(|v| v * v).sum();
+    let dof = (periods - 2) as f64;
     Factor {
-        mean: (trace - total / pf) / (pf - 1.0),
-        spread: (frob - 2.0 * rows2 / pf + (total / pf).powi(2)) / (pf - 1.0).powi(2),
+        mean: (trace - projected) / dof,
+        spread: (frob - 2.0 * leaked + inner) / (dof * dof),
     }
 }
 
