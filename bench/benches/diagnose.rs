@@ -10,10 +10,11 @@ use std::time::Duration;
 use zmp_campaign::Campaign;
 use zmp_diagnose::{diagnose, DiagnoseOptions};
 use zmp_identify::{identify, IdentifyOptions};
-use zmp_models::{lookup, Axis, Binding, EffectInstance, ModelSpec};
+use zmp_models::EffectKind;
+use zmp_models::{Axis, Binding, EffectInstance, ModelSpec};
 use zmp_virtual_robot::{simulate_campaign, ExperimentDesign};
 
-fn robot(effects: &[(&str, Binding, Vec<f64>)]) -> (Campaign, ModelSpec) {
+fn robot(effects: &[(EffectKind, Binding, Vec<f64>)]) -> (Campaign, ModelSpec) {
     let mut spec = ModelSpec::parse(
         include_str!("../../models/params/silo2-paper.toml"),
         "silo2-paper.toml",
@@ -21,7 +22,7 @@ fn robot(effects: &[(&str, Binding, Vec<f64>)]) -> (Campaign, ModelSpec) {
     .expect("paper model");
     for (kind, b, v) in effects {
         spec.insert(EffectInstance {
-            info: lookup(kind).expect("registered"),
+            info: kind.info(),
             binding: *b,
             values: v.clone(),
         });
@@ -40,19 +41,19 @@ fn bench(c: &mut Criterion) {
         (
             "delay_and_drift_168",
             robot(&[
-                ("time_delay", x, vec![0.04]),
-                ("time_delay", y, vec![0.04]),
-                ("sensor_drift", y, vec![0.0, 3e-5]),
+                (EffectKind::TimeDelay, x, vec![0.04]),
+                (EffectKind::TimeDelay, y, vec![0.04]),
+                (EffectKind::SensorDrift, y, vec![0.0, 3e-5]),
             ]),
-            "time_delay",
+            EffectKind::TimeDelay,
         ),
         (
             "friction_168",
             robot(&[
-                ("coulomb_friction", x, vec![0.3]),
-                ("coulomb_friction", y, vec![0.3]),
+                (EffectKind::CoulombFriction, x, vec![0.3]),
+                (EffectKind::CoulombFriction, y, vec![0.3]),
             ]),
-            "coulomb_friction",
+            EffectKind::CoulombFriction,
         ),
     ];
     let opts = DiagnoseOptions::default();
@@ -60,7 +61,7 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10).measurement_time(Duration::from_secs(20));
     for (name, (camp, model), expect) in &cases {
         let d = diagnose(camp, model, &opts, &|_| {}).expect("diagnose");
-        assert_eq!(&d.verdict, expect, "{}", d.to_text());
+        assert_eq!(d.verdict, expect.name(), "{}", d.to_text());
         g.bench_function(*name, |b| {
             b.iter(|| black_box(diagnose(camp, model, &opts, &|_| {}).expect("diagnose")))
         });

@@ -64,8 +64,13 @@ rate = 1e-5          # m/s
         let mut spec = ModelSpec::parse(&text, "all-effects").expect("all-effects model parses");
         for (n, ch) in Channel::ALL.iter().enumerate() {
             let b = Binding::Channel(*ch);
-            assert!(spec.set_value("uncertainty", b, "delta", 0.5));
-            assert!(spec.set_value("uncertainty", b, "delta_seed", 7.0 + n as f64));
+            assert!(spec.set_value(zmp_models::EffectKind::Uncertainty, b, "delta", 0.5));
+            assert!(spec.set_value(
+                zmp_models::EffectKind::Uncertainty,
+                b,
+                "delta_seed",
+                7.0 + n as f64
+            ));
         }
         for info in REGISTRY.iter() {
             assert!(spec.has(info.kind), "bench model lacks {}", info.kind);
@@ -167,7 +172,7 @@ pub mod identify {
         .expect("paper model");
         for axis in Axis::BOTH {
             spec.insert(EffectInstance {
-                info: zmp_models::lookup("acceleration_saturation").expect("registered"),
+                info: zmp_models::EffectKind::AccelerationSaturation.info(),
                 binding: Binding::Axis(axis),
                 values: vec![1.2],
             });

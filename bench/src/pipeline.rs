@@ -9,7 +9,8 @@ use zmp_campaign::{read_manifest, write_campaign, Campaign};
 use zmp_diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 use zmp_identify::{analyse_folder, identify_analysed, Identification, IdentifyOptions};
 use zmp_models::logspace;
-use zmp_models::{lookup, Axis, Binding, EffectInstance, ModelSpec};
+use zmp_models::EffectKind;
+use zmp_models::{Axis, Binding, EffectInstance, ModelSpec};
 use zmp_virtual_robot::{simulate_campaign, ExperimentDesign};
 
 /// Name of the campaign folder that [`write`] creates.
@@ -27,12 +28,12 @@ pub fn hidden_robot() -> ModelSpec {
     let x = Binding::Axis(Axis::X);
     let y = Binding::Axis(Axis::Y);
     for (kind, binding, values) in [
-        ("time_delay", x, vec![0.04]),
-        ("time_delay", y, vec![0.04]),
-        ("sensor_drift", y, vec![0.0, 3e-5]),
+        (EffectKind::TimeDelay, x, vec![0.04]),
+        (EffectKind::TimeDelay, y, vec![0.04]),
+        (EffectKind::SensorDrift, y, vec![0.0, 3e-5]),
     ] {
         spec.insert(EffectInstance {
-            info: lookup(kind).expect("registered effect"),
+            info: kind.info(),
             binding,
             values,
         });

@@ -5,6 +5,7 @@ mod common;
 
 use common::*;
 use serde_json::Value;
+use zmp_models::EffectKind;
 use zmp_models::Plant;
 
 fn floats(v: &Value, key: &str) -> Vec<f64> {
@@ -132,11 +133,14 @@ fn simulate_fmu_matches_in_process_plant_fmi3() {
 fn g_zmp(spec: &zmp_models::ModelSpec, i: usize, j: usize) -> zmp_models::lti::TransferFunction {
     use zmp_models::lti::{Poly, TransferFunction};
     use zmp_models::{Axis, Binding};
-    let pend = &spec.get("pendulum", Binding::Global).unwrap().values;
+    let pend = &spec
+        .get(EffectKind::Pendulum, Binding::Global)
+        .unwrap()
+        .values;
     let (a, b) = (pend[2 * i + j], pend[4 + 2 * i + j]);
     let lp = &spec
         .get(
-            "tracking_lowpass",
+            EffectKind::TrackingLowpass,
             Binding::Axis(Axis::from_index(j).unwrap()),
         )
         .unwrap()

@@ -2,7 +2,8 @@
 //! regularisation speed and frequency: a development aid for the diagnosis's costs.
 use zmp_models::effect::{BuildContext, Effect};
 use zmp_models::effects::servo::clear_describing_function_cache;
-use zmp_models::{lookup, Axis, Binding};
+use zmp_models::EffectKind;
+use zmp_models::{Axis, Binding};
 fn main() {
     saturation_with_link();
     let ctx = BuildContext {
@@ -20,8 +21,7 @@ fn main() {
     ] {
         for &omega in &[0.5, 2.0, 15.0] {
             clear_describing_function_cache();
-            let f: Box<dyn Effect> =
-                (lookup("coulomb_friction").unwrap().build)(&ctx, &[level, vs]);
+            let f: Box<dyn Effect> = (EffectKind::CoulombFriction.info().build)(&ctx, &[level, vs]);
             let t = std::time::Instant::now();
             let g = f.frequency_response(omega, 0.003);
             println!(
@@ -46,14 +46,14 @@ fn saturation_with_link() {
             link,
         };
         for &(kind, value) in &[
-            ("acceleration_saturation", 0.5),
-            ("coulomb_friction", 0.3),
-            ("coulomb_friction", 2.5),
+            (EffectKind::AccelerationSaturation, 0.5),
+            (EffectKind::CoulombFriction, 0.3),
+            (EffectKind::CoulombFriction, 2.5),
         ] {
             for &omega in &[0.5, 3.0, 9.0, 15.0] {
                 for &amp in &[0.003, 0.008] {
                     clear_describing_function_cache();
-                    let f: Box<dyn Effect> = (lookup(kind).unwrap().build)(&ctx, &[value]);
+                    let f: Box<dyn Effect> = (kind.info().build)(&ctx, &[value]);
                     let t = std::time::Instant::now();
                     let g = f.frequency_response(omega, amp);
                     println!(

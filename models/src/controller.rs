@@ -52,6 +52,44 @@ impl CascadeParams {
     pub fn trunk_gain(&self) -> f64 {
         self.mass_ratio * self.trunk_length
     }
+
+    /// The loop's dominant closed-loop poles on a plant seen at its static gain, `lever` m of
+    /// ZMP per radian of trunk (`a11 (m_t/m_r) l_t`). The controller gives the trunk angle
+    /// `theta = e_s K1 K2 / (s (s + K2)) (zmp_ref - zmp)` and the plant `zmp = lever theta`, so
+    ///
+    /// ```text
+    /// s^2 + K2 s + K2 kappa = 0,   kappa = e_s K1 lever   (1/s),
+    /// s = -K2/2 +- j sqrt(K2 kappa - K2^2/4)
+    /// ```
+    ///
+    /// The real part `-K2/2` does not depend on the lever: the envelope, and so the 2 % settling
+    /// time (about `4 / (K2/2)` = 40 s for the seed's K2), is the same for any robot; the lever
+    /// sets the damped frequency and the damping `zeta = sqrt(K2 / (4 kappa))`. Valid while the
+    /// loop is much slower than the servo (30 rad/s) and the pendulum's `b w^2` is small beside
+    /// `a` (1e-3 at 0.1 rad/s). Returns `(real part, imaginary part)`, 1/s (imaginary part 0 for
+    /// an over-damped loop, whose slower real pole is then returned).
+    pub fn dominant_poles(&self, lever: f64) -> (f64, f64) {
+        let kappa = self.error_scale * self.k1 * lever;
+        let half = self.k2 / 2.0;
+        let d = self.k2 * kappa - half * half;
+        if d > 0.0 {
+            (-half, d.sqrt())
+        } else {
+            (-half + (-d).sqrt(), 0.0)
+        }
+    }
+
+    /// When the step response of that second-order loop first reaches the set point, s:
+    /// `(pi - acos zeta) / omega_d` (no zero in the closed loop `K2 kappa / (s^2 + K2 s + K2
+    /// kappa)`); infinite for a critically or over-damped loop, which never reaches it.
+    pub fn first_reach_time(&self, lever: f64) -> f64 {
+        let (re, im) = self.dominant_poles(lever);
+        if im <= 0.0 {
+            return f64::INFINITY;
+        }
+        let zeta = -re / re.hypot(im);
+        (std::f64::consts::PI - zeta.acos()) / im
+    }
 }
 
 /// One axis of the cascade controller.
@@ -157,5 +195,47 @@ impl CascadeController {
 
     pub fn theta(&self) -> [f64; 2] {
         [self.axes[0].theta(), self.axes[1].theta()]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The dominant-pole reach time against the project's digital controller closing the loop
+    /// on a static plant `zmp = lever theta` at 1 ms (a second-order loop, simulated): within
+    /// 0.5 % (the trapezoidal integrator and the sampling at 1 ms against a 20-40 s response).
+    #[test]
+    fn first_reach_time_is_the_simulated_static_loops() {
+        let p = CascadeParams {
+            theta_min: -10.0,
+            theta_max: 10.0,
+            ..CascadeParams::silo2()
+        };
+        for lever in [0.0916, 0.0524, 0.0439] {
+            let h = 1e-3;
+            let mut ctrl = CascadeAxis::new(p, h);
+            ctrl.reset(0.0);
+            let mut zmp = 0.0;
+            let mut t_reach = f64::NAN;
+            for k in 0..200_000 {
+                if zmp >= 0.01 {
+                    t_reach = k as f64 * h;
+                    break;
+                }
+                zmp = lever * ctrl.step(0.01, zmp);
+            }
+            let predicted = p.first_reach_time(lever);
+            assert!(
+                (t_reach / predicted - 1.0).abs() < 5e-3,
+                "{lever}: {t_reach} vs {predicted}"
+            );
+            // The envelope does not depend on the lever.
+            assert!((p.dominant_poles(lever).0 + 0.1).abs() < 1e-12);
+        }
+        // Critically damped or slower: never reaches.
+        assert!(p
+            .first_reach_time(0.2 / (4.0 * 100.0 * 0.014))
+            .is_infinite());
     }
 }

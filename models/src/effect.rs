@@ -153,8 +153,8 @@ pub fn check_switch(v: &[f64], k: usize, off: &str, on: &str) -> Result<(), (usi
 
 /// The static description of an effect kind: one entry of the [`REGISTRY`].
 pub struct EffectInfo {
-    /// Stable name used in model files, diagnosis JSON and FMU variables.
-    pub kind: &'static str,
+    /// The kind; its name is what model files, diagnosis JSON and FMU variables carry.
+    pub kind: crate::EffectKind,
     pub title: &'static str,
     pub doc: &'static str,
     pub site: Site,
@@ -311,7 +311,7 @@ pub static REGISTRY: &[&EffectInfo] = &[
     &crate::effects::sensor_drift::INFO,
 ];
 
-/// The registry entry of `kind`.
+/// The registry entry of the kind named `kind` on disk.
 pub fn lookup(kind: &str) -> Option<&'static EffectInfo> {
-    REGISTRY.iter().copied().find(|i| i.kind == kind)
+    crate::EffectKind::parse(kind).map(crate::EffectKind::info)
 }

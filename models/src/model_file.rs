@@ -24,6 +24,7 @@
 //! anything else is an error that names the file and the key.
 
 use crate::effect::{lookup, Binding, BuildContext, Effect, EffectInfo, ParamSpec, REGISTRY};
+use crate::EffectKind;
 use std::fmt;
 use std::fmt::Write as _;
 
@@ -182,7 +183,7 @@ impl ModelSpec {
                 continue;
             }
             let Some(info) = lookup(key) else {
-                let known: Vec<&str> = REGISTRY.iter().map(|i| i.kind).collect();
+                let known: Vec<&str> = REGISTRY.iter().map(|i| i.kind.name()).collect();
                 return Err(err(
                     file,
                     key.as_str(),
@@ -260,29 +261,35 @@ impl ModelSpec {
         Ok(())
     }
 
-    pub fn get(&self, kind: &str, binding: Binding) -> Option<&EffectInstance> {
+    pub fn get(&self, kind: EffectKind, binding: Binding) -> Option<&EffectInstance> {
         self.effects
             .iter()
             .find(|e| e.info.kind == kind && e.binding == binding)
     }
 
-    pub fn get_mut(&mut self, kind: &str, binding: Binding) -> Option<&mut EffectInstance> {
+    pub fn get_mut(&mut self, kind: EffectKind, binding: Binding) -> Option<&mut EffectInstance> {
         self.effects
             .iter_mut()
             .find(|e| e.info.kind == kind && e.binding == binding)
     }
 
-    pub fn has(&self, kind: &str) -> bool {
+    pub fn has(&self, kind: EffectKind) -> bool {
         self.effects.iter().any(|e| e.info.kind == kind)
     }
 
     /// The value of `param` of effect `kind` at `binding`.
-    pub fn value(&self, kind: &str, binding: Binding, param: &str) -> Option<f64> {
+    pub fn value(&self, kind: EffectKind, binding: Binding, param: &str) -> Option<f64> {
         self.get(kind, binding).and_then(|e| e.value(param))
     }
 
     /// Sets a parameter; `false` if the effect instance or parameter does not exist.
-    pub fn set_value(&mut self, kind: &str, binding: Binding, param: &str, value: f64) -> bool {
+    pub fn set_value(
+        &mut self,
+        kind: EffectKind,
+        binding: Binding,
+        param: &str,
+        value: f64,
+    ) -> bool {
         match self.get_mut(kind, binding) {
             Some(e) => match e.info.param_index(param) {
                 Some(i) => {
@@ -293,6 +300,21 @@ impl ModelSpec {
             },
             None => false,
         }
+    }
+
+    /// The pendulum's coefficients, when the model has its core pendulum.
+    pub fn pendulum(&self) -> Option<crate::effects::pendulum::Pendulum> {
+        self.get(EffectKind::Pendulum, Binding::Global)
+            .map(|e| crate::effects::pendulum::Pendulum::from_values(&e.values))
+    }
+
+    /// Sets the pendulum's coefficients (adding the pendulum when the model has none).
+    pub fn set_pendulum(&mut self, p: &crate::effects::pendulum::Pendulum) {
+        self.insert(EffectInstance {
+            info: EffectKind::Pendulum.info(),
+            binding: Binding::Global,
+            values: p.values().to_vec(),
+        });
     }
 
     /// Adds (or replaces) an effect instance, keeping canonical order.
@@ -315,9 +337,9 @@ impl ModelSpec {
     /// Removes every instance of `kind`, and its standard errors (a model written after an
     /// effect was taken out kept the effect's `stderr` table, held-out draw 1230010's
     /// `backlash-for-coulomb_friction` version a friction's).
-    pub fn remove(&mut self, kind: &str) {
+    pub fn remove(&mut self, kind: EffectKind) {
         self.effects.retain(|e| e.info.kind != kind);
-        self.stderr.remove(kind);
+        self.stderr.remove(kind.name());
     }
 
     /// Every parameter of every effect instance, with its dotted name.

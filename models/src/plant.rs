@@ -22,6 +22,7 @@ use crate::effects::servo_link::TrunkLink;
 use crate::effects::tracking_lowpass::TrackingLowpass;
 use crate::harmonic::steady_first_harmonics;
 use crate::model_file::{ModelError, ModelSpec};
+use crate::EffectKind;
 use num_complex::Complex64;
 
 mod response;
@@ -107,13 +108,13 @@ impl Plant {
         }
         let pendulum = Pendulum::from_values(
             &spec
-                .get("pendulum", Binding::Global)
+                .get(EffectKind::Pendulum, Binding::Global)
                 .expect("validated")
                 .values,
         );
         let lp = |a: Axis| {
             let v = &spec
-                .get("tracking_lowpass", Binding::Axis(a))
+                .get(EffectKind::TrackingLowpass, Binding::Axis(a))
                 .expect("validated")
                 .values;
             TrackingLowpass {
@@ -127,7 +128,9 @@ impl Plant {
         // otherwise it is the small-signal filter of the CoM reference before the servo.
         // A backlash with `in_servo = 1` is the play of such a link between drive and trunk.
         let trunk = Axis::BOTH.map(|a| {
-            let v = &spec.get("flexible_trunk", Binding::Axis(a))?.values;
+            let v = &spec
+                .get(EffectKind::FlexibleTrunk, Binding::Axis(a))?
+                .values;
             let link = TrunkLink::flexible(
                 v[0],
                 v[1],
@@ -137,7 +140,9 @@ impl Plant {
             (v.get(4) == Some(&1.0) && link.share > 0.0).then_some(link)
         });
         let play = Axis::BOTH.map(|a| {
-            crate::effects::backlash::servo_link(&spec.get("backlash", Binding::Axis(a))?.values)
+            crate::effects::backlash::servo_link(
+                &spec.get(EffectKind::Backlash, Binding::Axis(a))?.values,
+            )
         });
         let mut link = [None; 2];
         for a in Axis::BOTH {
@@ -184,7 +189,7 @@ impl Plant {
             channel_out: [[0.0; 2]; 2],
         };
         for inst in spec.effects.iter().filter(|e| !e.info.core) {
-            if inst.info.kind == "time_delay"
+            if inst.info.kind == EffectKind::TimeDelay
                 && inst.values[0] / h > crate::effects::time_delay::MAX_DELAY_STEPS
             {
                 return Err(ModelError {
@@ -216,8 +221,10 @@ impl Plant {
             let effect = inst.build(&ctx);
             match (inst.info.site, inst.binding) {
                 (Site::Command, Binding::Axis(a))
-                    if (inst.info.kind == "flexible_trunk" && trunk[a.index()].is_some())
-                        || (inst.info.kind == "backlash" && play[a.index()].is_some()) =>
+                    if (inst.info.kind == EffectKind::FlexibleTrunk
+                        && trunk[a.index()].is_some())
+                        || (inst.info.kind == EffectKind::Backlash
+                            && play[a.index()].is_some()) =>
                 {
                     plant.in_loop[a.index()].push(effect)
                 }

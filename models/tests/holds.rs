@@ -12,6 +12,7 @@
 //! - a whole-step time delay passes a held input through exactly (shifted by its steps).
 
 use zmp_models::lti::{canonical, discretise_foh, Poly, TransferFunction};
+use zmp_models::EffectKind;
 use zmp_models::{Binding, ModelSpec, Plant};
 
 const PAPER: &str = include_str!("../params/silo2-paper.toml");
@@ -22,11 +23,14 @@ fn paper() -> ModelSpec {
 
 /// `G_ij(s)` of the nominal seed model, from its parameters.
 fn g(spec: &ModelSpec, i: usize, j: usize) -> TransferFunction {
-    let pend = &spec.get("pendulum", Binding::Global).unwrap().values;
+    let pend = &spec
+        .get(EffectKind::Pendulum, Binding::Global)
+        .unwrap()
+        .values;
     let (a, b) = (pend[2 * i + j], pend[4 + 2 * i + j]);
     let lp = &spec
         .get(
-            "tracking_lowpass",
+            EffectKind::TrackingLowpass,
             Binding::Axis(zmp_models::Axis::from_index(j).unwrap()),
         )
         .unwrap()
@@ -213,7 +217,10 @@ fn held_input_with_uncertainty_is_close_to_exact() {
         .collect();
     let unc = zmp_models::effects::uncertainty::channel_factor(
         &spec
-            .get("uncertainty", Binding::Channel(zmp_models::Channel::ALL[0]))
+            .get(
+                EffectKind::Uncertainty,
+                Binding::Channel(zmp_models::Channel::ALL[0]),
+            )
             .unwrap()
             .values,
     );

@@ -1,6 +1,7 @@
 //! A bad model file gets an error that names the file and the dotted key; `to_toml` writes a
 //! file that reads back to the same model.
 
+use zmp_models::EffectKind;
 use zmp_models::{ModelError, ModelSpec, Plant};
 
 const FILE: &str = "bad.toml";
@@ -410,7 +411,7 @@ a11 = 0.01
         );
     }
     let g21 = spec.get(
-        "uncertainty",
+        EffectKind::Uncertainty,
         zmp_models::Binding::Channel(zmp_models::Channel::ALL[2]),
     );
     assert_eq!(g21.unwrap().values, vec![7.0, 1.0, 10.0, 1.0, 0.0]);
@@ -425,9 +426,9 @@ fn an_effect_taken_out_takes_its_standard_errors_with_it() {
          [stderr.backlash]\nwidth = 0.00002\n",
     );
     let mut spec = ModelSpec::parse(&text, FILE).unwrap();
-    assert!(spec.has("backlash") && spec.stderr.contains_key("backlash"));
-    spec.remove("backlash");
-    assert!(!spec.has("backlash"));
+    assert!(spec.has(EffectKind::Backlash) && spec.stderr.contains_key("backlash"));
+    spec.remove(EffectKind::Backlash);
+    assert!(!spec.has(EffectKind::Backlash));
     let written = spec.to_toml();
     assert!(!written.contains("backlash"), "{written}");
     // The standard errors of what stays are kept, and the file reads back.

@@ -9,6 +9,7 @@ use std::cell::Cell;
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use zmp_models::controller::{CascadeController, CascadeParams};
+use zmp_models::EffectKind;
 use zmp_models::{Binding, Channel, ModelSpec, Plant, REGISTRY};
 
 struct Counting;
@@ -88,9 +89,9 @@ rate = 1e-5
 fn all_effects_plant() -> Plant {
     let mut spec = ModelSpec::parse(&format!("{PAPER}{EXTRA}"), "all.toml").unwrap();
     for (n, ch) in Channel::ALL.iter().enumerate() {
-        assert!(spec.set_value("uncertainty", Binding::Channel(*ch), "delta", 0.8));
+        assert!(spec.set_value(EffectKind::Uncertainty, Binding::Channel(*ch), "delta", 0.8));
         assert!(spec.set_value(
-            "uncertainty",
+            EffectKind::Uncertainty,
             Binding::Channel(*ch),
             "delta_seed",
             5.0 + n as f64

@@ -5,6 +5,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use num_complex::Complex64;
+use zmp_models::EffectKind;
 use zmp_models::{Binding, Channel, ModelSpec, Plant};
 
 const FILE: &str = include_str!("../params/silo2-paper.toml");
@@ -68,7 +69,10 @@ fn nominal_frequency_response_is_the_seeds_formula() {
 #[test]
 fn file_holds_the_seeds_numbers() {
     let spec = paper_spec();
-    let pend = |name: &str| spec.value("pendulum", Binding::Global, name).unwrap();
+    let pend = |name: &str| {
+        spec.value(EffectKind::Pendulum, Binding::Global, name)
+            .unwrap()
+    };
     for ch in Channel::ALL {
         let (i, j) = (ch.output.index(), ch.input.index());
         assert_eq!(
@@ -85,12 +89,24 @@ fn file_holds_the_seeds_numbers() {
         );
         let b = Binding::Channel(ch);
         let (k, z, p) = W[i][j];
-        assert_eq!(spec.value("uncertainty", b, "k"), Some(k), "{ch} k");
-        assert_eq!(spec.value("uncertainty", b, "z"), Some(z), "{ch} z");
-        assert_eq!(spec.value("uncertainty", b, "p"), Some(p), "{ch} p");
+        assert_eq!(
+            spec.value(EffectKind::Uncertainty, b, "k"),
+            Some(k),
+            "{ch} k"
+        );
+        assert_eq!(
+            spec.value(EffectKind::Uncertainty, b, "z"),
+            Some(z),
+            "{ch} z"
+        );
+        assert_eq!(
+            spec.value(EffectKind::Uncertainty, b, "p"),
+            Some(p),
+            "{ch} p"
+        );
         // The file is the nominal model.
         assert_eq!(
-            spec.value("uncertainty", b, "delta"),
+            spec.value(EffectKind::Uncertainty, b, "delta"),
             Some(0.0),
             "{ch} delta"
         );
@@ -98,8 +114,14 @@ fn file_holds_the_seeds_numbers() {
     // 900/(s^2 + 60 s + 900): omega_n = 30 rad/s, 2 zeta omega_n = 60.
     for axis in zmp_models::Axis::BOTH {
         let b = Binding::Axis(axis);
-        assert_eq!(spec.value("tracking_lowpass", b, "omega_n"), Some(30.0));
-        assert_eq!(spec.value("tracking_lowpass", b, "zeta"), Some(1.0));
+        assert_eq!(
+            spec.value(EffectKind::TrackingLowpass, b, "omega_n"),
+            Some(30.0)
+        );
+        assert_eq!(
+            spec.value(EffectKind::TrackingLowpass, b, "zeta"),
+            Some(1.0)
+        );
     }
 }
 
@@ -110,7 +132,12 @@ fn constant_delta_applies_the_seeds_weights() {
     for delta in [1.0, -1.0, 0.5] {
         let mut spec = paper_spec();
         for ch in Channel::ALL {
-            assert!(spec.set_value("uncertainty", Binding::Channel(ch), "delta", delta));
+            assert!(spec.set_value(
+                EffectKind::Uncertainty,
+                Binding::Channel(ch),
+                "delta",
+                delta
+            ));
         }
         let plant = Plant::new(&spec, 1e-3).unwrap();
         for omega in grid() {
@@ -135,7 +162,7 @@ fn constant_delta_applies_the_seeds_weights() {
 fn g11_with_unit_delta() {
     let mut spec = paper_spec();
     assert!(spec.set_value(
-        "uncertainty",
+        EffectKind::Uncertainty,
         Binding::Channel(Channel::ALL[0]),
         "delta",
         1.0

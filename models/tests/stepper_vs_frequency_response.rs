@@ -35,6 +35,7 @@ use std::f64::consts::PI;
 use zmp_models::effects::{sensor_lowpass, structural_mode, uncertainty};
 use zmp_models::harmonic::first_harmonic;
 use zmp_models::model_file::fmt_float;
+use zmp_models::EffectKind;
 use zmp_models::{Axis, ModelSpec, Plant};
 
 const TOL_MAG: f64 = 0.005;
@@ -425,9 +426,9 @@ fn seed_model_at_one_millisecond() {
     let mut random = nominal.clone();
     for (n, ch) in zmp_models::Channel::ALL.iter().enumerate() {
         let b = zmp_models::Binding::Channel(*ch);
-        assert!(unit.set_value("uncertainty", b, "delta", 1.0));
-        assert!(random.set_value("uncertainty", b, "delta", -0.8));
-        assert!(random.set_value("uncertainty", b, "delta_seed", 11.0 + n as f64));
+        assert!(unit.set_value(EffectKind::Uncertainty, b, "delta", 1.0));
+        assert!(random.set_value(EffectKind::Uncertainty, b, "delta", -0.8));
+        assert!(random.set_value(EffectKind::Uncertainty, b, "delta_seed", 11.0 + n as f64));
     }
     for spec in [nominal, unit, random] {
         let mut plant = Plant::new(&spec, 1e-3).unwrap();

@@ -9,6 +9,7 @@ use zmp_models::closed_loop::{run, StepExperiment, StepMetrics};
 use zmp_models::controller::{CascadeController, CascadeParams};
 use zmp_models::effects::uncertainty::weight;
 use zmp_models::logspace;
+use zmp_models::EffectKind;
 use zmp_models::{Binding, Channel, Complex64, ModelSpec, Plant};
 use zmp_report::plot::{
     bode_svg, time_svg, Band, BodePanel, BodeSeries, Style, TimePanel, TimeSeries, PALETTE,
@@ -114,7 +115,7 @@ pub fn bode_panels(spec: &ModelSpec, title_prefix: &str) -> Result<Vec<BodePanel
             .map(|&wk| plant.frequency_response(wk)[i][j])
             .collect();
         let mut bands = Vec::new();
-        if let Some(u) = spec.get("uncertainty", Binding::Channel(ch)) {
+        if let Some(u) = spec.get(EffectKind::Uncertainty, Binding::Channel(ch)) {
             let wt = weight(u.values[0], u.values[1], u.values[2]);
             let (lo, hi): (Vec<f64>, Vec<f64>) = w
                 .iter()
@@ -145,6 +146,7 @@ pub fn bode_panels(spec: &ModelSpec, title_prefix: &str) -> Result<Vec<BodePanel
             ),
             series: vec![BodeSeries::line("nominal model", w.clone(), g, PALETTE[0])],
             bands,
+            magnitude_only: false,
         });
     }
     Ok(panels)

@@ -10,7 +10,8 @@ pub fn demo_step(out: &Path, quiet: bool) -> Result<()> {
     if !quiet {
         println!(
             "7. Effective centre of mass (second seed) on the SABIAN twin: calibration, virtual \
-             models n, r, s, v, e, one walk each"
+             models n, r, s, v, e, one walk each open loop and one with the Torso Position \
+             Control"
         );
     }
     // The twin runs from the repository root: an absolute path.

@@ -10,6 +10,7 @@ use zmp_identify::{
     analyse_folder, analyse_records, identify_analysed, identify_with_progress, summary_json,
     write_model, Identification, IdentifyOptions,
 };
+use zmp_models::EffectKind;
 use zmp_report::identify::write_report;
 
 /// The default model path: `<campaign>/../<campaign-folder-name>-identified.toml`.
@@ -124,9 +125,11 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
         Some(dir) => Some(write_report(&ident, dir, force)?),
         None => None,
     };
+    let robust = crate::robust::seed_controller_check(&ident.model)?;
     if json {
         let mut s = summary_json(&ident);
         s["model"] = serde_json::json!(out);
+        s["robust"] = serde_json::to_value(zmp_report::robust::summary(&robust))?;
         if let Some(f) = &files {
             s["report"] = serde_json::json!(f.html);
         }
@@ -151,13 +154,18 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
             println!("warning: {w}");
         }
         if let Some(l) = ident.saturation.limit {
-            if !ident.model.has("acceleration_saturation") {
+            if !ident.model.has(EffectKind::AccelerationSaturation) {
                 println!(
                     "acceleration saturation detected (limit about {l:.3} m/s2); the model file stays linear: \
                      `cargo xtask diagnose` scores it, or pass --include-saturation"
                 );
             }
         }
+        println!(
+            "robust stability with the seed's controller ({}): {}",
+            robust.controller,
+            robust.summary()
+        );
         println!("model -> {}", out.display());
         if let Some(f) = &files {
             println!("report -> {}", f.html.display());

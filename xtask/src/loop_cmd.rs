@@ -59,6 +59,8 @@ pub struct LoopSummary {
     /// Whether the time limit (`--time-limit`) passed before the loop ended: the last model
     /// is the best it reached in time.
     pub time_limit_reached: bool,
+    /// The seed's cascade controller on the last model against its uncertainty weights.
+    pub robust: zmp_report::robust::RobustSummary,
 }
 
 fn options(
@@ -227,6 +229,12 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     for c in &still_failing {
         say(&format!("   still failing: {c}"));
     }
+    let robust = crate::robust::seed_controller_check(&r.final_model)?;
+    say(&format!(
+        "robust stability of the last model with the seed's controller ({}): {}",
+        robust.controller,
+        robust.summary()
+    ));
     if r.time_limit_reached {
         say(&format!(
             "   the time limit ({} s, --time-limit) passed before the loop ended: the last \
@@ -249,6 +257,7 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         final_model: current_path,
         still_failing,
         time_limit_reached: r.time_limit_reached,
+        robust: zmp_report::robust::summary(&robust),
     })
 }
 

@@ -11,6 +11,7 @@ mod fmu;
 mod identify;
 mod links;
 mod loop_cmd;
+mod robust;
 mod setup;
 mod simulate;
 mod twin;
@@ -111,19 +112,21 @@ enum Cmd {
         json: bool,
     },
     /// The second seed on the SABIAN MuJoCo twin: calibrate the effective centre of mass from
-    /// the two ankle force/torque sensors (the seed's upright + 1 degree design and a D-optimal
-    /// design, each over noise draws, against MuJoCo's true CoM), build the virtual models
-    /// n, r, s, v (and e: the error mass where the calibration puts it), walk the seed's
-    /// 8-step gait with each on the twin with the true masses, and write com-calibration.toml,
-    /// report.html (the seed's tables 2-4 beside ours) and SVG figures into OUT.
+    /// the two ankle force/torque sensors (the seed's upright + 1 degree design, with and
+    /// without its eq. 7 joint moments, and a D-optimal design, each over noise draws, against
+    /// MuJoCo's true CoM), build the virtual models n, r, s, v (and e: the error mass where the
+    /// calibration puts it), walk the seed's 8-step gait with each on the twin with the true
+    /// masses, open loop and with the seed's Torso Position Control (its effort per model), and
+    /// write com-calibration.toml, report.html (the seed's tables 2-4 beside ours) and SVG
+    /// figures into OUT.
     CalibrateCom {
         /// Output folder.
         #[arg(long, default_value = "out/com-calibration")]
         out: PathBuf,
-        /// The short version (1 walk per model, 40 noise draws), as in the demo.
+        /// The short version (1 walk per model and control, 40 noise draws), as in the demo.
         #[arg(long)]
         quick: bool,
-        /// Walking runs per model (default 5, the seed's).
+        /// Walking runs per model and control (default 5, the seed's).
         #[arg(long)]
         runs: Option<usize>,
         /// Noise draws of each calibration (default 200).
@@ -315,6 +318,40 @@ enum Cmd {
         #[arg(long, value_name = "SECONDS", default_value_t = 900)]
         time_limit: u64,
     },
+    /// Robust stability of the cascade ZMP controller against a model's multiplicative
+    /// uncertainty (first seed, sections 6.4-6.6): the closed loop's complementary sensitivity
+    /// T of each channel against its weight W (`||W T||_inf < 1`: stable for every perturbation
+    /// of that channel inside its weight), the structured margin of all four channels at once
+    /// (an upper bound of mu: the D-scaled largest singular value over a frequency grid) and
+    /// where it is tightest, the nominal closed loop's stability, and the smallest perturbation
+    /// that puts a closed-loop pole on the imaginary axis. The plant is the model's small-signal
+    /// frequency response (its nonlinear effects left out); see docs/src/robust-stability.md.
+    Robust {
+        /// Model file (zmp-model/1) with `uncertainty` weights (identify writes them).
+        #[arg(long)]
+        model: PathBuf,
+        /// The cascade's gains K1,K2 (default the seed's 0.014,0.2).
+        #[arg(long, value_name = "K1,K2")]
+        gains: Option<String>,
+        /// CoM displacement per radian of trunk, (m_t/m_r) l_t, m/rad (default 0.1105, the
+        /// seed's convention with the ZMP error in cm; only its product with the error scale
+        /// matters).
+        #[arg(long, value_name = "M_PER_RAD", allow_negative_numbers = true)]
+        trunk_gain: Option<f64>,
+        /// Controller sample period, s (default 0.01; 0 for the continuous controller). Enters
+        /// as the zero-order hold's delay.
+        #[arg(long, value_name = "S", allow_negative_numbers = true)]
+        period: Option<f64>,
+        /// Write |T| against 1/|W| per channel and the structured bound (SVG).
+        #[arg(long, value_name = "FILE.svg")]
+        plot: Option<PathBuf>,
+        /// Overwrite an existing plot file.
+        #[arg(long)]
+        force: bool,
+        /// Print the result as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Validate the seed's model on a MuJoCo twin (physics the project did not write): campaign,
     /// identification, closed loop and diagnosis on the twin, with an HTML report.
     Validate {
@@ -349,6 +386,10 @@ enum ValidateRobot {
         /// The short version (what CI and the demo run): 10 campaign records instead of 144.
         #[arg(long)]
         short: bool,
+        /// The campaign extended to 50 rad/s (240 records: 0.1 and 0.2 mm of CoM from 14 to
+        /// 50 rad/s added), to tell the stance resonance from an in-band surrogate.
+        #[arg(long, conflicts_with = "short")]
+        extended: bool,
         /// Replace OUT if it holds an earlier validation.
         #[arg(long)]
         force: bool,
@@ -358,7 +399,7 @@ enum ValidateRobot {
         /// Also write this run's numbers into the book page at PATH (docs/src/twin-silo2.md),
         /// between its `<!-- twin-silo2:... -->` markers (full run only): how the book's twin
         /// tables are made.
-        #[arg(long, value_name = "PATH", conflicts_with = "short")]
+        #[arg(long, value_name = "PATH", conflicts_with_all = ["short", "extended"])]
         readme: Option<PathBuf>,
     },
 }
@@ -505,6 +546,7 @@ fn dispatch(command: Cmd) -> Result<()> {
                 ValidateRobot::Silo2 {
                     out,
                     short,
+                    extended,
                     force,
                     json,
                     readme,
@@ -512,10 +554,29 @@ fn dispatch(command: Cmd) -> Result<()> {
         } => twin::validate_silo2(&twin::Silo2Args {
             out: out.as_deref(),
             short,
+            extended,
             force,
             json,
             readme: readme.as_deref(),
         }),
+        Cmd::Robust {
+            model,
+            gains,
+            trunk_gain,
+            period,
+            plot,
+            force,
+            json,
+        } => robust::robust(&robust::RobustArgs {
+            model: &model,
+            gains: gains.as_deref().map(robust::parse_gains).transpose()?,
+            trunk_gain,
+            period,
+            plot: plot.as_deref(),
+            force,
+            json,
+        })
+        .map(|_| ()),
         Cmd::History { model, plot, json } => {
             diagnose::history_cmd(&model, plot.as_deref(), true, json)
         }

@@ -71,6 +71,7 @@ pub fn twin_command(p: &Prereqs, renderer: bool, args: &[OsString]) -> Result<Co
 pub struct Silo2Args<'a> {
     pub out: Option<&'a Path>,
     pub short: bool,
+    pub extended: bool,
     pub force: bool,
     pub json: bool,
     pub readme: Option<&'a Path>,
@@ -87,6 +88,7 @@ fn silo2_args(a: &Silo2Args, egl: &std::result::Result<PathBuf, String>) -> Vec<
     args.push(o.into());
     for (on, flag) in [
         (a.short, "--short"),
+        (a.extended, "--extended"),
         (a.force, "--force"),
         (a.json, "--json"),
     ] {
@@ -140,6 +142,7 @@ pub fn demo_step(out: &Path, quiet: bool) -> Result<()> {
         &Silo2Args {
             out: Some(&dir),
             short: true,
+            extended: false,
             force: false,
             json: true,
             readme: None,
@@ -187,6 +190,14 @@ pub fn demo_step(out: &Path, quiet: bool) -> Result<()> {
         s["diagnosis"]["verdict"].as_str().unwrap_or("?"),
         dir.join("report.html").display()
     ));
+    for a in s["stance"].as_array().into_iter().flatten() {
+        say(&format!(
+            "   stance {}: {} ({})",
+            a["axis"].as_str().unwrap_or("?"),
+            a["verdict"].as_str().unwrap_or("?"),
+            a["why"].as_str().unwrap_or("")
+        ));
+    }
     Ok(())
 }
 

@@ -34,7 +34,7 @@ pub static PARAMS: [ParamSpec; 2] = [
 ];
 
 pub static INFO: EffectInfo = EffectInfo {
-    kind: "acceleration_saturation",
+    kind: crate::EffectKind::AccelerationSaturation,
     title: "acceleration saturation",
     doc: "The servo's force (over the moved mass) is clamped to +-limit; passive_damping acts beyond it.",
     site: Site::Servo,

@@ -86,7 +86,7 @@ fn validate(v: &[f64]) -> Result<(), (usize, String)> {
 }
 
 pub static INFO: EffectInfo = EffectInfo {
-    kind: "backlash",
+    kind: crate::EffectKind::Backlash,
     title: "backlash (dead band)",
     doc: "Play of total width w: on the CoM reference (in_servo = 0) or between drive and trunk inside the servo (in_servo = 1).",
     site: Site::Command,

@@ -33,7 +33,7 @@ pub static PARAMS: [ParamSpec; 2] = [
 ];
 
 pub static INFO: EffectInfo = EffectInfo {
-    kind: "coulomb_friction",
+    kind: crate::EffectKind::CoulombFriction,
     title: "Coulomb friction in the servo",
     doc: "The servo's acceleration is reduced by level*sign(velocity) (regularised).",
     site: Site::Servo,

@@ -64,7 +64,7 @@ fn validate(v: &[f64]) -> Result<(), (usize, String)> {
 }
 
 pub static INFO: EffectInfo = EffectInfo {
-    kind: "flexible_trunk",
+    kind: crate::EffectKind::FlexibleTrunk,
     title: "flexible trunk (a share of the mass on a flexible link, in the servo loop)",
     doc: "x_c = Q wn^2/(s^2 Q + 2 zeta wn s + wn^2) x_cr, Q = (1-share) + share M(s), per input axis.",
     site: Site::Command,

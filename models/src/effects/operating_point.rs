@@ -52,7 +52,7 @@ pub static PARAMS: [ParamSpec; 4] = [
 ];
 
 pub static INFO: EffectInfo = EffectInfo {
-    kind: "operating_point_dependence",
+    kind: crate::EffectKind::OperatingPointDependence,
     title: "operating-point dependence",
     doc: "a_ij and b_ij scale linearly with the CoM position (zmp = a(x_c) x_c - b(x_c) x_c'').",
     site: Site::Pendulum,

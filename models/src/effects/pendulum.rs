@@ -23,7 +23,7 @@ pub static PARAMS: [ParamSpec; 8] = [
 ];
 
 pub static INFO: EffectInfo = EffectInfo {
-    kind: "pendulum",
+    kind: crate::EffectKind::Pendulum,
     title: "equivalent inverted pendulum a - b s^2",
     doc: "Per channel G_ij, ZMP_i = a_ij x_cj - b_ij x_cj'' (first seed, eq. 24).",
     site: Site::Pendulum,
@@ -48,6 +48,20 @@ impl Pendulum {
             a: [[v[0], v[1]], [v[2], v[3]]],
             b: [[v[4], v[5]], [v[6], v[7]]],
         }
+    }
+
+    /// The values in [`PARAMS`] order (`a11 a12 a21 a22 b11 b12 b21 b22`).
+    pub fn values(&self) -> [f64; 8] {
+        let (a, b) = (self.a, self.b);
+        [
+            a[0][0], a[0][1], a[1][0], a[1][1], b[0][0], b[0][1], b[1][0], b[1][1],
+        ]
+    }
+
+    /// Each coefficient with its model-file name (`a11` ... `b22`), in [`PARAMS`] order.
+    pub fn named(&self) -> [(&'static str, f64); 8] {
+        let v = self.values();
+        std::array::from_fn(|k| (PARAMS[k].name, v[k]))
     }
 
     /// `a_ij - b_ij s^2` at `s = j omega`, i.e. `a_ij + b_ij omega^2`.

@@ -10,7 +10,7 @@ pub static PARAMS: [ParamSpec; 2] = [
 ];
 
 pub static INFO: EffectInfo = EffectInfo {
-    kind: "sensor_drift",
+    kind: crate::EffectKind::SensorDrift,
     title: "ZMP sensor offset and drift",
     doc: "ZMP_measured = ZMP + offset + rate*t, per output axis.",
     site: Site::Sensor,

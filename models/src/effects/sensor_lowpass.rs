@@ -14,7 +14,7 @@ pub static PARAMS: [ParamSpec; 1] = [ParamSpec::required(
 )];
 
 pub static INFO: EffectInfo = EffectInfo {
-    kind: "sensor_lowpass",
+    kind: crate::EffectKind::SensorLowpass,
     title: "ZMP sensor low-pass",
     doc: "ZMP_measured = wc/(s+wc) ZMP, per output axis.",
     site: Site::Sensor,

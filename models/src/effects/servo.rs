@@ -373,24 +373,24 @@ fn periodic_fixed_point(s: &[Vec<f64>]) -> Option<(Vec<f64>, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::effect::{lookup, Binding, BuildContext};
+    use crate::effect::{Binding, BuildContext};
     use crate::Axis;
 
     /// The servo effect `kind` with parameter `value`, built for step `h`.
-    pub(super) fn limit(kind: &str, value: f64, h: f64) -> Box<dyn Effect> {
+    pub(super) fn limit(kind: crate::EffectKind, value: f64, h: f64) -> Box<dyn Effect> {
         let ctx = BuildContext {
             h,
             binding: Binding::Axis(Axis::X),
             servo: Some((30.0, 1.0)),
             link: None,
         };
-        (lookup(kind).unwrap().build)(&ctx, &[value])
+        (kind.info().build)(&ctx, &[value])
     }
 
     /// The plain steady state: settle from rest for `periods` periods at the describing
     /// function's own step, then one period's Fourier sum (no extrapolation, no early stop).
     fn plain_first_harmonic(
-        kind: &str,
+        kind: crate::EffectKind,
         value: f64,
         omega: f64,
         amplitude: f64,
@@ -401,7 +401,7 @@ mod tests {
 
     /// The `k`-th harmonic of the plain steady state over the reference's amplitude.
     fn plain_harmonic(
-        kind: &str,
+        kind: crate::EffectKind,
         value: f64,
         omega: f64,
         amplitude: f64,
@@ -432,9 +432,9 @@ mod tests {
     #[test]
     fn third_harmonic_is_the_plain_steady_states() {
         for (kind, value, omega, amplitude) in [
-            ("acceleration_saturation", 0.8, 15.0, 0.008),
-            ("acceleration_saturation", 0.2, 6.0, 0.008),
-            ("coulomb_friction", 0.05, 3.0, 0.005),
+            (crate::EffectKind::AccelerationSaturation, 0.8, 15.0, 0.008),
+            (crate::EffectKind::AccelerationSaturation, 0.2, 6.0, 0.008),
+            (crate::EffectKind::CoulombFriction, 0.05, 3.0, 0.005),
         ] {
             let plain = plain_harmonic(kind, value, omega, amplitude, 400, 3);
             let third = limit(kind, value, 1e-3).third_harmonic(omega, amplitude);
@@ -459,12 +459,25 @@ mod tests {
     fn extrapolated_and_warm_started_runs_find_the_plain_steady_state() {
         let (omega, amplitude) = (15.0, 0.008);
         for value in [0.6, 1.2, 1.6] {
-            let plain =
-                plain_first_harmonic("acceleration_saturation", value, omega, amplitude, 400);
-            let mut l = [limit("acceleration_saturation", value, 1e-3)];
+            let plain = plain_first_harmonic(
+                crate::EffectKind::AccelerationSaturation,
+                value,
+                omega,
+                amplitude,
+                400,
+            );
+            let mut l = [limit(
+                crate::EffectKind::AccelerationSaturation,
+                value,
+                1e-3,
+            )];
             let (cold, _) =
                 servo_first_harmonic_from(30.0, 1.0, 1e-3, &mut l, omega, amplitude, None);
-            let mut other = [limit("acceleration_saturation", 1.1 * value, 1e-3)];
+            let mut other = [limit(
+                crate::EffectKind::AccelerationSaturation,
+                1.1 * value,
+                1e-3,
+            )];
             let (_, orbit) =
                 servo_first_harmonic_from(30.0, 1.0, 1e-3, &mut other, omega, amplitude, None);
             let (warm, _) =

@@ -24,7 +24,7 @@ pub static PARAMS: [ParamSpec; 3] = [
 ];
 
 pub static INFO: EffectInfo = EffectInfo {
-    kind: "structural_mode",
+    kind: crate::EffectKind::StructuralMode,
     title: "structural mode (lightly damped resonance)",
     doc: "ZMP_measured = ((1-share) + share wn^2/(s^2+2 zeta wn s+wn^2)) ZMP, per output axis.",
     site: Site::Sensor,

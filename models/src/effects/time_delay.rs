@@ -19,7 +19,7 @@ pub static PARAMS: [ParamSpec; 1] = [ParamSpec::required(
 )];
 
 pub static INFO: EffectInfo = EffectInfo {
-    kind: "time_delay",
+    kind: crate::EffectKind::TimeDelay,
     title: "pure time delay",
     doc: "The CoM reference reaches the servo tau seconds late: e^{-s tau}.",
     site: Site::Command,

@@ -26,7 +26,7 @@ pub static PARAMS: [ParamSpec; 2] = [
 ];
 
 pub static INFO: EffectInfo = EffectInfo {
-    kind: "tracking_lowpass",
+    kind: crate::EffectKind::TrackingLowpass,
     title: "tracking low-pass wn^2/(s^2+2 zeta wn s+wn^2)",
     doc: "The servo's CoM tracking; x_c = H(s) x_cr per input axis (first seed, section 6.3).",
     site: Site::Servo,

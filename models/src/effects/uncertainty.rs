@@ -45,7 +45,7 @@ pub static PARAMS: [ParamSpec; 5] = [
 ];
 
 pub static INFO: EffectInfo = EffectInfo {
-    kind: "uncertainty",
+    kind: crate::EffectKind::Uncertainty,
     title: "multiplicative uncertainty W(s) Delta(s)",
     doc: "G_ij (1 + W_ij Delta_ij), W = k (s+z)/(s+p), |Delta| <= 1.",
     site: Site::Channel,

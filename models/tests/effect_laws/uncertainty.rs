@@ -5,6 +5,7 @@ use crate::support::{plant, spec};
 use num_complex::Complex64;
 use zmp_models::effects::uncertainty;
 use zmp_models::lti::slowest_time_constant;
+use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding, Channel};
 
 /// Random realisations of `Delta` are stable and `||Delta||_inf <= |delta|`, on a dense grid;
@@ -66,7 +67,7 @@ fn uncertainty_in_the_plant_is_bounded_and_time_response_matches() {
                 let (i, j) = (ch.output.index(), ch.input.index());
                 let v = |n: &str| {
                     spec_w
-                        .value("uncertainty", Binding::Channel(ch), n)
+                        .value(EffectKind::Uncertainty, Binding::Channel(ch), n)
                         .unwrap()
                 };
                 let wt = uncertainty::weight(v("k"), v("z"), v("p")).freq(w);

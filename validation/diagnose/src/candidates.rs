@@ -4,7 +4,8 @@
 
 use super::lm::Bounded;
 use super::observe::Observation;
-use zmp_models::{lookup, Axis, Binding, Channel, EffectInstance, ModelSpec};
+use zmp_models::EffectKind;
+use zmp_models::{Axis, Binding, Channel, EffectInstance, ModelSpec};
 
 mod modes;
 mod play;
@@ -22,7 +23,7 @@ pub use saturation::{demanded_acceleration, inactive_limits};
 /// One scalar the fit moves; it sets `param` of `kind` at every binding listed.
 #[derive(Debug, Clone)]
 pub struct Free {
-    pub kind: &'static str,
+    pub kind: EffectKind,
     pub bindings: Vec<Binding>,
     pub param: &'static str,
     pub bounds: Bounded,
@@ -30,7 +31,7 @@ pub struct Free {
 
 impl Free {
     pub(super) fn new(
-        kind: &'static str,
+        kind: EffectKind,
         bindings: Vec<Binding>,
         param: &'static str,
         value: f64,
@@ -127,10 +128,12 @@ pub fn core_frees(spec: &ModelSpec, bandwidth: bool) -> Vec<Free> {
                 ("b", "21") => "b21",
                 _ => "b22",
             };
-            let v = spec.value("pendulum", Binding::Global, name).unwrap_or(0.0);
+            let v = spec
+                .value(EffectKind::Pendulum, Binding::Global, name)
+                .unwrap_or(0.0);
             if diag || v != 0.0 {
                 out.push(Free::new(
-                    "pendulum",
+                    EffectKind::Pendulum,
                     vec![Binding::Global],
                     name,
                     v,
@@ -144,13 +147,13 @@ pub fn core_frees(spec: &ModelSpec, bandwidth: bool) -> Vec<Free> {
         return out;
     }
     let wn = spec
-        .value("tracking_lowpass", AXES[0], "omega_n")
+        .value(EffectKind::TrackingLowpass, AXES[0], "omega_n")
         .unwrap_or(30.0);
     let zeta = spec
-        .value("tracking_lowpass", AXES[0], "zeta")
+        .value(EffectKind::TrackingLowpass, AXES[0], "zeta")
         .unwrap_or(1.0);
     out.push(Free::new(
-        "tracking_lowpass",
+        EffectKind::TrackingLowpass,
         AXES.to_vec(),
         "omega_n",
         wn,
@@ -160,7 +163,7 @@ pub fn core_frees(spec: &ModelSpec, bandwidth: bool) -> Vec<Free> {
     // A position servo is at least moderately damped (the seed's is critically damped): a
     // low-pass below 0.3 would be a structural mode, which the catalogue names separately.
     out.push(Free::new(
-        "tracking_lowpass",
+        EffectKind::TrackingLowpass,
         AXES.to_vec(),
         "zeta",
         zeta,
@@ -182,8 +185,8 @@ pub struct Candidate {
 }
 
 /// Adds the registered effect `kind` with `values` at every binding listed.
-pub fn add_effect(spec: &mut ModelSpec, kind: &str, bindings: &[Binding], values: &[f64]) {
-    let info = lookup(kind).expect("a registered effect");
+pub fn add_effect(spec: &mut ModelSpec, kind: EffectKind, bindings: &[Binding], values: &[f64]) {
+    let info = kind.info();
     for b in bindings {
         spec.insert(EffectInstance {
             info,
@@ -193,7 +196,7 @@ pub fn add_effect(spec: &mut ModelSpec, kind: &str, bindings: &[Binding], values
     }
 }
 
-fn with(spec: &ModelSpec, kind: &str, bindings: &[Binding], values: &[f64]) -> ModelSpec {
+fn with(spec: &ModelSpec, kind: EffectKind, bindings: &[Binding], values: &[f64]) -> ModelSpec {
     let mut s = spec.clone();
     add_effect(&mut s, kind, bindings, values);
     s
@@ -215,7 +218,7 @@ fn axis_variants(r: &DataRange) -> Vec<Vec<Binding>> {
 fn one_param(
     spec: &ModelSpec,
     r: &DataRange,
-    kind: &'static str,
+    kind: EffectKind,
     param: &'static str,
     starts: &[f64],
     min: f64,
@@ -239,7 +242,7 @@ fn time_delay(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     let mut out = one_param(
         spec,
         r,
-        "time_delay",
+        EffectKind::TimeDelay,
         "delay",
         &[0.1 / r.omega_max, 0.5 / r.omega_max, 1.5 / r.omega_max],
         0.0,
@@ -250,13 +253,13 @@ fn time_delay(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     if let Some(absorbed) = absorbed_lag(spec, r) {
         let mut seed = spec.clone();
         for b in AXES {
-            seed.set_value("tracking_lowpass", b, "omega_n", SEED_SERVO.0);
-            seed.set_value("tracking_lowpass", b, "zeta", SEED_SERVO.1);
+            seed.set_value(EffectKind::TrackingLowpass, b, "omega_n", SEED_SERVO.0);
+            seed.set_value(EffectKind::TrackingLowpass, b, "zeta", SEED_SERVO.1);
         }
         out.extend(per_axis(
             &seed,
             r,
-            "time_delay",
+            EffectKind::TimeDelay,
             "delay",
             &[absorbed.min(tmax)],
             0.0,
@@ -274,8 +277,8 @@ pub const SEED_SERVO: (f64, f64) = (30.0, 1.0);
 /// model has a low-pass and the difference is more than the delay candidate's shortest start
 /// (a tenth of a radian at the top frequency); `None` otherwise.
 pub fn absorbed_lag(spec: &ModelSpec, r: &DataRange) -> Option<f64> {
-    let wn = spec.value("tracking_lowpass", AXES[0], "omega_n")?;
-    let zeta = spec.value("tracking_lowpass", AXES[0], "zeta")?;
+    let wn = spec.value(EffectKind::TrackingLowpass, AXES[0], "omega_n")?;
+    let zeta = spec.value(EffectKind::TrackingLowpass, AXES[0], "zeta")?;
     let lag = 2.0 * zeta / wn - 2.0 * SEED_SERVO.1 / SEED_SERVO.0;
     (lag > 0.1 / r.omega_max).then_some(lag)
 }
@@ -285,7 +288,7 @@ pub fn absorbed_lag(spec: &ModelSpec, r: &DataRange) -> Option<f64> {
 fn per_axis(
     spec: &ModelSpec,
     r: &DataRange,
-    kind: &'static str,
+    kind: EffectKind,
     param: &'static str,
     scan: &[f64],
     min: f64,
@@ -317,8 +320,10 @@ fn servo_params(spec: &ModelSpec) -> (f64, f64) {
 /// where the model has none).
 pub fn servo_params_of(spec: &ModelSpec, b: Binding) -> (f64, f64) {
     (
-        spec.value("tracking_lowpass", b, "omega_n").unwrap_or(30.0),
-        spec.value("tracking_lowpass", b, "zeta").unwrap_or(1.0),
+        spec.value(EffectKind::TrackingLowpass, b, "omega_n")
+            .unwrap_or(30.0),
+        spec.value(EffectKind::TrackingLowpass, b, "zeta")
+            .unwrap_or(1.0),
     )
 }
 
@@ -327,7 +332,7 @@ fn backlash(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     per_axis(
         spec,
         r,
-        "backlash",
+        EffectKind::Backlash,
         "width",
         &[0.1 * a, 0.5 * a],
         0.0,
@@ -343,7 +348,7 @@ fn coulomb_friction(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     per_axis(
         spec,
         r,
-        "coulomb_friction",
+        EffectKind::CoulombFriction,
         "level",
         &[0.01 * f0, 0.1 * f0],
         0.0,
@@ -357,7 +362,7 @@ fn sensor_lowpass(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     one_param(
         spec,
         r,
-        "sensor_lowpass",
+        EffectKind::SensorLowpass,
         "cutoff",
         &starts,
         0.2 * r.omega_min,
@@ -366,10 +371,10 @@ fn sensor_lowpass(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
 }
 
 fn sensor_drift(spec: &ModelSpec, _r: &DataRange) -> Vec<Start> {
-    let s = with(spec, "sensor_drift", &AXES, &[0.0, 0.0]);
+    let s = with(spec, EffectKind::SensorDrift, &AXES, &[0.0, 0.0]);
     let frees = AXES
         .iter()
-        .map(|b| Free::new("sensor_drift", vec![*b], "rate", 0.0, -0.1, 0.1))
+        .map(|b| Free::new(EffectKind::SensorDrift, vec![*b], "rate", 0.0, -0.1, 0.1))
         .collect();
     vec![(s, frees)]
 }
@@ -377,7 +382,7 @@ fn sensor_drift(spec: &ModelSpec, _r: &DataRange) -> Vec<Start> {
 fn operating_point_dependence(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     let s = with(
         spec,
-        "operating_point_dependence",
+        EffectKind::OperatingPointDependence,
         &[Binding::Global],
         &[0.0; 4],
     );
@@ -389,7 +394,7 @@ fn operating_point_dependence(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
         if r.op_span[k] > 1e-9 {
             let lim = (2.0 / r.op_span[k]).min(100.0);
             frees.push(Free::new(
-                "operating_point_dependence",
+                EffectKind::OperatingPointDependence,
                 vec![Binding::Global],
                 pa,
                 0.0,
@@ -397,7 +402,7 @@ fn operating_point_dependence(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
                 lim,
             ));
             frees.push(Free::new(
-                "operating_point_dependence",
+                EffectKind::OperatingPointDependence,
                 vec![Binding::Global],
                 pb,
                 0.0,
@@ -415,9 +420,9 @@ fn operating_point_dependence(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
 fn cross_coupling(spec: &ModelSpec, _r: &DataRange) -> Vec<Start> {
     let mut frees = Vec::new();
     for name in ["a12", "a21", "b12", "b21"] {
-        if spec.value("pendulum", Binding::Global, name) == Some(0.0) {
+        if spec.value(EffectKind::Pendulum, Binding::Global, name) == Some(0.0) {
             frees.push(Free::new(
-                "pendulum",
+                EffectKind::Pendulum,
                 vec![Binding::Global],
                 name,
                 0.0,
@@ -474,24 +479,24 @@ pub static CATALOGUE: &[Candidate] = &[
 
 /// The model-file effect a catalogue name adds (`cross_coupling` frees pendulum terms); the
 /// first of [`model_kinds`].
-pub fn model_kind(effect: &str) -> &str {
-    model_kinds(effect).first().copied().unwrap_or(effect)
+pub fn model_kind(effect: &str) -> Option<EffectKind> {
+    model_kinds(effect).first().copied()
 }
 
 /// Every model-file effect a catalogue name may add: a structural mode is either on the ZMP
 /// path (`structural_mode`) or a flexible link of the trunk inside the servo loop
 /// (`flexible_trunk`); the diagnosis tries both and names either `structural_mode`.
-pub fn model_kinds(effect: &str) -> &[&str] {
+pub fn model_kinds(effect: &str) -> &'static [EffectKind] {
     match effect {
-        "cross_coupling" => &["pendulum"],
-        "structural_mode" => &["structural_mode", "flexible_trunk"],
-        "time_delay" => &["time_delay"],
-        "backlash" => &["backlash"],
-        "coulomb_friction" => &["coulomb_friction"],
-        "acceleration_saturation" => &["acceleration_saturation"],
-        "sensor_lowpass" => &["sensor_lowpass"],
-        "operating_point_dependence" => &["operating_point_dependence"],
-        "sensor_drift" => &["sensor_drift"],
+        "cross_coupling" => &[EffectKind::Pendulum],
+        "structural_mode" => &[EffectKind::StructuralMode, EffectKind::FlexibleTrunk],
+        "time_delay" => &[EffectKind::TimeDelay],
+        "backlash" => &[EffectKind::Backlash],
+        "coulomb_friction" => &[EffectKind::CoulombFriction],
+        "acceleration_saturation" => &[EffectKind::AccelerationSaturation],
+        "sensor_lowpass" => &[EffectKind::SensorLowpass],
+        "operating_point_dependence" => &[EffectKind::OperatingPointDependence],
+        "sensor_drift" => &[EffectKind::SensorDrift],
         _ => &[],
     }
 }
@@ -519,8 +524,18 @@ mod tests {
             "silo2-paper.toml",
         )
         .unwrap();
-        add_effect(&mut spec, "acceleration_saturation", &[AXES[0]], &[x]);
-        add_effect(&mut spec, "acceleration_saturation", &[AXES[1]], &[y]);
+        add_effect(
+            &mut spec,
+            EffectKind::AccelerationSaturation,
+            &[AXES[0]],
+            &[x],
+        );
+        add_effect(
+            &mut spec,
+            EffectKind::AccelerationSaturation,
+            &[AXES[1]],
+            &[y],
+        );
         spec
     }
 
@@ -533,11 +548,11 @@ mod tests {
     #[test]
     fn a_refit_frees_the_drive_share_of_a_play_inside_the_servo_only() {
         let mut s = paper_with_limits(1.0, 1.2);
-        add_effect(&mut s, "backlash", &[AXES[0]], &[0.001, 1.0]);
-        add_effect(&mut s, "backlash", &[AXES[1]], &[0.001]);
+        add_effect(&mut s, EffectKind::Backlash, &[AXES[0]], &[0.001, 1.0]);
+        add_effect(&mut s, EffectKind::Backlash, &[AXES[1]], &[0.001]);
         let frees: Vec<String> = super::super::engine::structure_frees(&s)
             .iter()
-            .filter(|f| f.kind == "backlash")
+            .filter(|f| f.kind == EffectKind::Backlash)
             .map(|f| f.name())
             .collect();
         assert_eq!(
@@ -560,11 +575,11 @@ mod tests {
         for (k, (spec, frees)) in starts.iter().enumerate() {
             let fac = [0.4, 0.8][k];
             let y = spec
-                .value("acceleration_saturation", AXES[1], "limit")
+                .value(EffectKind::AccelerationSaturation, AXES[1], "limit")
                 .unwrap();
             assert!((y / (fac * demand) - 1.0).abs() < 1e-9, "y limit {y}");
             assert_eq!(
-                spec.value("acceleration_saturation", AXES[0], "limit"),
+                spec.value(EffectKind::AccelerationSaturation, AXES[0], "limit"),
                 Some(1.0)
             );
             assert_eq!(frees.len(), 2);
@@ -592,8 +607,8 @@ mod tests {
         let with_servo = |wn: f64, zeta: f64| {
             let mut s = paper_with_limits(1.0, 1.2);
             for b in AXES {
-                s.set_value("tracking_lowpass", b, "omega_n", wn);
-                s.set_value("tracking_lowpass", b, "zeta", zeta);
+                s.set_value(EffectKind::TrackingLowpass, b, "omega_n", wn);
+                s.set_value(EffectKind::TrackingLowpass, b, "zeta", zeta);
             }
             s
         };
@@ -606,9 +621,15 @@ mod tests {
         assert_eq!(starts.len(), plain.len() + 1);
         let (spec, frees) = starts.last().unwrap();
         for b in AXES {
-            assert_eq!(spec.value("tracking_lowpass", b, "omega_n"), Some(30.0));
-            assert_eq!(spec.value("tracking_lowpass", b, "zeta"), Some(1.0));
-            assert_eq!(spec.value("time_delay", b, "delay"), Some(lag));
+            assert_eq!(
+                spec.value(EffectKind::TrackingLowpass, b, "omega_n"),
+                Some(30.0)
+            );
+            assert_eq!(
+                spec.value(EffectKind::TrackingLowpass, b, "zeta"),
+                Some(1.0)
+            );
+            assert_eq!(spec.value(EffectKind::TimeDelay, b, "delay"), Some(lag));
         }
         assert_eq!(frees.len(), 2);
         // The seed's own servo, a faster one, and one lagging by less than the shortest start

@@ -26,6 +26,7 @@ use super::measure::{
 };
 use super::observe::Observation;
 use std::collections::BTreeMap;
+use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding, ModelSpec};
 
 mod held_out;
@@ -153,7 +154,7 @@ fn fit_descending(
 pub fn structure_frees(spec: &ModelSpec) -> Vec<Free> {
     let mut out = Vec::new();
     for e in &spec.effects {
-        if e.info.core || e.info.kind == "uncertainty" {
+        if e.info.core || e.info.kind == EffectKind::Uncertainty {
             continue;
         }
         for (k, p) in e.info.params.iter().enumerate() {
@@ -166,7 +167,7 @@ pub fn structure_frees(spec: &ModelSpec) -> Vec<Free> {
             // fitted too, and the shape of its transmission (mode, damping, drag: the ringing
             // of the impacts, which a ZMP's first and third harmonics barely resolve) is the
             // model file's.
-            if e.info.kind == "backlash"
+            if e.info.kind == EffectKind::Backlash
                 && p.name != "width"
                 && (p.name != "drive" || e.value("in_servo") != Some(1.0))
             {
@@ -228,8 +229,8 @@ pub fn refit_frees(spec: &ModelSpec, own: &[Free]) -> Vec<Free> {
 fn bandwidth_variants(spec: &ModelSpec) -> Vec<ModelSpec> {
     let b = Binding::Axis(Axis::X);
     let (Some(wn), Some(z)) = (
-        spec.value("tracking_lowpass", b, "omega_n"),
-        spec.value("tracking_lowpass", b, "zeta"),
+        spec.value(EffectKind::TrackingLowpass, b, "omega_n"),
+        spec.value(EffectKind::TrackingLowpass, b, "zeta"),
     ) else {
         return vec![spec.clone()];
     };
@@ -246,8 +247,8 @@ fn bandwidth_variants(spec: &ModelSpec) -> Vec<ModelSpec> {
         .map(|(w, zz)| {
             let mut s = spec.clone();
             for a in Axis::BOTH {
-                s.set_value("tracking_lowpass", Binding::Axis(a), "omega_n", w);
-                s.set_value("tracking_lowpass", Binding::Axis(a), "zeta", zz);
+                s.set_value(EffectKind::TrackingLowpass, Binding::Axis(a), "omega_n", w);
+                s.set_value(EffectKind::TrackingLowpass, Binding::Axis(a), "zeta", zz);
             }
             s
         })
@@ -362,9 +363,11 @@ fn limits_revived(f: Fitted, obs: &[&Observation], iters: usize) -> Fitted {
     let mut spec = f.spec.clone();
     let mut frees = f.frees.clone();
     for b in &idle {
-        spec.set_value("acceleration_saturation", *b, "limit", restart);
+        spec.set_value(EffectKind::AccelerationSaturation, *b, "limit", restart);
         for fr in frees.iter_mut().filter(|fr| {
-            fr.kind == "acceleration_saturation" && fr.param == "limit" && fr.bindings.contains(b)
+            fr.kind == EffectKind::AccelerationSaturation
+                && fr.param == "limit"
+                && fr.bindings.contains(b)
         }) {
             fr.bounds.value = restart.clamp(fr.bounds.min, fr.bounds.max);
         }
@@ -384,7 +387,7 @@ pub fn is_costly(effect: &str) -> bool {
 /// saturation only on the records that reach the limit): any candidate added to it is fitted
 /// as carefully as a servo candidate.
 pub fn heavy_base(spec: &ModelSpec) -> bool {
-    spec.has("coulomb_friction")
+    spec.has(EffectKind::CoulombFriction)
 }
 
 /// Fits `frees` (the first `own` of them an effect's own) of `start` on `obs`.
@@ -450,15 +453,21 @@ fn score_candidate_as(
 /// and no friction (whose describing functions inside the servo are several times slower; the
 /// loop's `trunk_law` in `iterate.rs` still tries those).
 fn mode_in_servo(fitted: Fitted, range: &DataRange, obs: &[&Observation]) -> Fitted {
-    if !fitted.spec.has("acceleration_saturation") || heavy_base(&fitted.spec) {
+    if !fitted.spec.has(EffectKind::AccelerationSaturation) || heavy_base(&fitted.spec) {
         return fitted;
     }
     let Some(alt) = trunk_in_servo(&fitted.spec) else {
         return fitted;
     };
     let starts = trunk_law_starts(&alt, range);
-    let Some(best) = refit_all_from(&starts, &["flexible_trunk", "acceleration_saturation"], obs)
-    else {
+    let Some(best) = refit_all_from(
+        &starts,
+        &[
+            EffectKind::FlexibleTrunk,
+            EffectKind::AccelerationSaturation,
+        ],
+        obs,
+    ) else {
         return fitted;
     };
     if best.cost >= fitted.cost {
@@ -490,7 +499,7 @@ pub fn addable(effect: &str, base: &ModelSpec) -> bool {
     if effect == "cross_coupling" {
         return ["a12", "a21", "b12", "b21"]
             .iter()
-            .any(|p| base.value("pendulum", Binding::Global, p) == Some(0.0));
+            .any(|p| base.value(EffectKind::Pendulum, Binding::Global, p) == Some(0.0));
     }
     if effect == "structural_mode" {
         return mode_free_axes(base).iter().any(|&f| f);
@@ -500,7 +509,7 @@ pub fn addable(effect: &str, base: &ModelSpec) -> bool {
     if effect == "acceleration_saturation" {
         return true;
     }
-    !model_kinds(effect).iter().any(|k| base.has(k))
+    !model_kinds(effect).iter().any(|k| base.has(*k))
 }
 
 /// Candidates of the catalogue that can be added to `base` (and are not in `exclude`), scored
@@ -577,7 +586,8 @@ fn damping_variants(spec: &ModelSpec) -> Vec<ModelSpec> {
         .effects
         .iter()
         .filter(|e| {
-            e.info.kind == "acceleration_saturation" && e.values.get(1).is_some_and(|c| *c > 0.0)
+            e.info.kind == EffectKind::AccelerationSaturation
+                && e.values.get(1).is_some_and(|c| *c > 0.0)
         })
         .map(|e| e.binding)
         .collect();
@@ -589,7 +599,7 @@ fn damping_variants(spec: &ModelSpec) -> Vec<ModelSpec> {
         let mut s = spec.clone();
         for b in &bindings {
             let c = share * tracking_damping(spec, *b);
-            s.set_value("acceleration_saturation", *b, "passive_damping", c);
+            s.set_value(EffectKind::AccelerationSaturation, *b, "passive_damping", c);
         }
         out.push(s);
     }
@@ -625,7 +635,7 @@ pub fn refit_all(base: &ModelSpec, obs: &[&Observation]) -> Option<Fitted> {
 /// the old law are no fit of the new one), one fit per start, no variants.
 pub fn refit_all_from(
     starts: &[ModelSpec],
-    kinds: &[&str],
+    kinds: &[EffectKind],
     obs: &[&Observation],
 ) -> Option<Fitted> {
     let best = starts
@@ -693,7 +703,7 @@ pub fn without_effect(s: &Scored) -> ModelSpec {
         let zeros = vec![0.0; s.fitted.own];
         apply(&mut spec, &s.fitted.frees[..s.fitted.own], &zeros);
     } else {
-        for k in model_kinds(&s.effect) {
+        for &k in model_kinds(&s.effect) {
             spec.remove(k);
         }
     }
@@ -711,9 +721,23 @@ mod tests {
     fn the_first_effect_of_a_pair_reports_its_own_parameters() {
         let x = Binding::Axis(Axis::X);
         let frees = vec![
-            Free::new("coulomb_friction", vec![x], "level", 9.5e-4, 0.0, 1.0),
-            Free::new("tracking_lowpass", vec![], "omega_n", 30.0, 1.0, 100.0),
-            Free::new("time_delay", vec![x], "delay", 0.09, 0.0, 0.45),
+            Free::new(
+                EffectKind::CoulombFriction,
+                vec![x],
+                "level",
+                9.5e-4,
+                0.0,
+                1.0,
+            ),
+            Free::new(
+                EffectKind::TrackingLowpass,
+                vec![],
+                "omega_n",
+                30.0,
+                1.0,
+                100.0,
+            ),
+            Free::new(EffectKind::TimeDelay, vec![x], "delay", 0.09, 0.0, 0.45),
         ];
         let spec = ModelSpec::parse(
             include_str!("../../../models/params/silo2-paper.toml"),

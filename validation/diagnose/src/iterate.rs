@@ -16,6 +16,7 @@ use super::select::{gain, removes_most, CHI2_MIN, MAX_EFFECTS};
 use super::DiagnoseOptions;
 use zmp_campaign::Campaign;
 use zmp_identify::{identify_with_progress, Identification, IdentifyError, IdentifyOptions};
+use zmp_models::EffectKind;
 use zmp_models::ModelSpec;
 
 mod absorbed_delay;
@@ -321,8 +322,8 @@ fn last_looks(
     // have absorbed.
     if let Some(aug) = absorbed_delay::look(current, found, obs, opts, progress)? {
         *current = aug.spec.clone();
-        found.push("time_delay".to_string());
-        versions.push((vec!["time_delay".to_string()], aug));
+        found.push(EffectKind::TimeDelay.to_string());
+        versions.push((vec![EffectKind::TimeDelay.to_string()], aug));
         // With the delay in, the modes may fit better inside their servo (1200041: from 2.77x
         // the floor as filters to 0.80x).
         if let Some(aug) = trunk_law(current, obs, opts, progress)? {
@@ -337,8 +338,8 @@ fn last_looks(
     // law the search reaches only through a play on the command.
     if let Some(aug) = play_inside::look(current, found, obs, opts, progress)? {
         *current = aug.spec.clone();
-        found.push("backlash".to_string());
-        versions.push((vec!["backlash".to_string()], aug));
+        found.push(EffectKind::Backlash.to_string());
+        versions.push((vec![EffectKind::Backlash.to_string()], aug));
     }
     if zmp_campaign::par::past_deadline() {
         return Ok(());
@@ -388,8 +389,14 @@ fn trunk_law(
     let starts = trunk_law_starts(&alt, &DataRange::of(obs));
     // The force limit acts on another force under the new law: its value is refitted with
     // the links' from every start.
-    let fitted =
-        engine::refit_all_from(&starts, &["flexible_trunk", "acceleration_saturation"], obs);
+    let fitted = engine::refit_all_from(
+        &starts,
+        &[
+            EffectKind::FlexibleTrunk,
+            EffectKind::AccelerationSaturation,
+        ],
+        obs,
+    );
     adopt_law(current, &now, fitted.as_ref(), obs, TRUNK_IN_SERVO, opts)
 }
 
@@ -419,7 +426,11 @@ fn play_law(
     }
     progress("trying the play inside its servo");
     let now = predict(current, obs)?;
-    let fitted = engine::refit_all_from(&starts, &["backlash", "acceleration_saturation"], obs);
+    let fitted = engine::refit_all_from(
+        &starts,
+        &[EffectKind::Backlash, EffectKind::AccelerationSaturation],
+        obs,
+    );
     Ok(adopt_law(current, &now, fitted.as_ref(), obs, PLAY_IN_SERVO, opts)?.zip(fitted))
 }
 

@@ -10,6 +10,7 @@
 
 use super::observe::Observation;
 use num_complex::Complex64;
+use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding, Channel, ModelSpec, Plant};
 
 /// Internal step used to evaluate models in the diagnosis, s.
@@ -121,7 +122,7 @@ fn predict_serial(
     let nonlinear = spec.effects.iter().any(|e| !e.info.linear);
     let rate = |i: usize| {
         spec.value(
-            "sensor_drift",
+            EffectKind::SensorDrift,
             Binding::Axis(Axis::from_index(i).expect("0 or 1")),
             "rate",
         )

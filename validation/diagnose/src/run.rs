@@ -15,6 +15,7 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 use zmp_campaign::Campaign;
 use zmp_identify::{analyse_records, reason, IdentifyOptions, RecordFit};
+use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding, Channel, ModelSpec};
 
 mod output;
@@ -198,10 +199,18 @@ pub fn check_inputs(
         }
         let ch = Channel::new(axis, axis);
         let a = model
-            .value("pendulum", Binding::Global, &format!("a{}", ch.suffix()))
+            .value(
+                EffectKind::Pendulum,
+                Binding::Global,
+                &format!("a{}", ch.suffix()),
+            )
             .unwrap_or(0.0);
         let b = model
-            .value("pendulum", Binding::Global, &format!("b{}", ch.suffix()))
+            .value(
+                EffectKind::Pendulum,
+                Binding::Global,
+                &format!("b{}", ch.suffix()),
+            )
             .unwrap_or(0.0);
         if a == 0.0 && b == 0.0 {
             return Err(DiagnoseError::Model {

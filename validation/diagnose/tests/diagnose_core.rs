@@ -8,7 +8,8 @@ use zmp_diagnose::observe::Observation;
 use zmp_diagnose::run::observe_campaign;
 use zmp_diagnose::select::gain;
 use zmp_models::logspace;
-use zmp_models::{lookup, Axis, Binding, EffectInstance, ModelSpec};
+use zmp_models::EffectKind;
+use zmp_models::{Axis, Binding, EffectInstance, ModelSpec};
 use zmp_virtual_robot::{simulate_campaign, ExperimentDesign};
 
 fn paper() -> ModelSpec {
@@ -49,7 +50,7 @@ fn true_model_scores_at_the_noise_floor() {
 #[test]
 fn hidden_delay_is_seen_and_recovered() {
     let mut truth = paper();
-    let info = lookup("time_delay").unwrap();
+    let info = EffectKind::TimeDelay.info();
     for a in Axis::BOTH {
         truth.insert(EffectInstance {
             info,
@@ -65,7 +66,10 @@ fn hidden_delay_is_seen_and_recovered() {
         e0 > 5.0 * f,
         "a 20 ms delay must show: error {e0}, floor {f}"
     );
-    let cand = CATALOGUE.iter().find(|c| c.effect == "time_delay").unwrap();
+    let cand = CATALOGUE
+        .iter()
+        .find(|c| c.effect == EffectKind::TimeDelay)
+        .unwrap();
     let scored = score_candidate(cand, &base, &o).unwrap();
     let p = own_parameters(&scored);
     let tau = p.values().next().copied().unwrap().0;

@@ -72,6 +72,20 @@ pub fn check_or_update(path: &Path, tag: &str, text: &str) -> Result<(), String>
     }
 }
 
+/// The repository's root, where this crate's sources lie (for the checks a test makes of the
+/// book in the source tree).
+pub fn repository_root() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// [`check_or_update`] for a test: the section `tag` of the page `page` (a path from the
+/// repository's root, e.g. `docs/src/suites.md`); panics with the difference.
+pub fn check_page(page: &str, tag: &str, text: &str) {
+    if let Err(e) = check_or_update(&repository_root().join(page), tag, text) {
+        panic!("{e}");
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

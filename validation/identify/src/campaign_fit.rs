@@ -11,6 +11,7 @@ use super::{
     Parameter, RecordFit, Saturation, POOR_FIT, SEED_BANDWIDTH,
 };
 use std::collections::BTreeMap;
+use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding, ModelSpec};
 
 /// The identification from the records' analyses ([`analyse_records`](super::analyse_records)
@@ -64,8 +65,12 @@ pub fn identify_analysed(
         .or_else(|| {
             opts.start_model.as_ref().and_then(|m| {
                 Some((
-                    m.value("tracking_lowpass", Binding::Axis(Axis::X), "omega_n")?,
-                    m.value("tracking_lowpass", Binding::Axis(Axis::X), "zeta")?,
+                    m.value(
+                        EffectKind::TrackingLowpass,
+                        Binding::Axis(Axis::X),
+                        "omega_n",
+                    )?,
+                    m.value(EffectKind::TrackingLowpass, Binding::Axis(Axis::X), "zeta")?,
                 ))
             })
         })

@@ -49,19 +49,14 @@ use num_complex::Complex64;
 use serde::Serialize;
 use std::path::PathBuf;
 use zmp_campaign::Campaign;
+use zmp_models::effects::pendulum::Pendulum;
 use zmp_models::{Axis, ModelSpec};
 
 /// The SILO2 values of the first seed (section 6), for comparison in reports.
-pub const SEED_PENDULUM: [(&str, f64); 8] = [
-    ("a11", 0.8293),
-    ("a12", 0.07455),
-    ("a21", 0.1895),
-    ("a22", 1.245),
-    ("b11", 0.2767),
-    ("b12", 0.005428),
-    ("b21", 0.09979),
-    ("b22", 0.1012),
-];
+pub const SEED_PENDULUM: Pendulum = Pendulum {
+    a: [[0.8293, 0.07455], [0.1895, 1.245]],
+    b: [[0.2767, 0.005428], [0.09979, 0.1012]],
+};
 /// The seed's tracking low-pass `(omega_n, zeta)` (section 6.3).
 pub const SEED_BANDWIDTH: (f64, f64) = (30.0, 1.0);
 

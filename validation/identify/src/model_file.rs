@@ -3,6 +3,7 @@
 
 use super::{Identification, IdentifyError, IdentifyOptions, POOR_FIT};
 use zmp_campaign::ledger::utc_now;
+use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding, Channel, EffectInstance, ModelSpec};
 
 fn fl(v: f64) -> toml::Value {
@@ -33,33 +34,33 @@ pub(super) fn build_model(
     ));
     let fail = |what: &str| IdentifyError::FitFailed(format!("cannot set {what} in the model"));
     let mut se_pend = toml::Table::new();
+    let mut pendulum = spec.pendulum().ok_or_else(|| fail("the pendulum"))?;
     for (m, letter) in [(&ident.a, 'a'), (&ident.b, 'b')] {
         for (i, row) in m.iter().enumerate() {
             for (j, prm) in row.iter().enumerate() {
-                let key = format!("{letter}{}{}", i + 1, j + 1);
                 // A structure without a coupling channel (both terms zero in the model given)
                 // keeps it out.
                 let absent = i != j
-                    && opts.start_model.as_ref().is_some_and(|m| {
-                        ["a", "b"].iter().all(|l| {
-                            m.value(
-                                "pendulum",
-                                Binding::Global,
-                                &format!("{l}{}{}", i + 1, j + 1),
-                            ) == Some(0.0)
-                        })
-                    });
+                    && opts
+                        .start_model
+                        .as_ref()
+                        .and_then(ModelSpec::pendulum)
+                        .is_some_and(|p| p.a[i][j] == 0.0 && p.b[i][j] == 0.0);
                 if absent {
                     continue;
                 }
-                if !spec.set_value("pendulum", Binding::Global, &key, prm.value) {
-                    return Err(fail(&key));
-                }
-                se_pend.insert(key, fl(prm.stderr));
+                let slot = if letter == 'a' {
+                    &mut pendulum.a[i][j]
+                } else {
+                    &mut pendulum.b[i][j]
+                };
+                *slot = prm.value;
+                se_pend.insert(format!("{letter}{}{}", i + 1, j + 1), fl(prm.stderr));
             }
         }
     }
-    let lp = zmp_models::lookup("tracking_lowpass").expect("registered");
+    spec.set_pendulum(&pendulum);
+    let lp = zmp_models::EffectKind::TrackingLowpass.info();
     for axis in Axis::BOTH {
         spec.insert(EffectInstance {
             info: lp,
@@ -67,7 +68,7 @@ pub(super) fn build_model(
             values: vec![ident.bandwidth.omega_n, ident.bandwidth.zeta],
         });
     }
-    let unc = zmp_models::lookup("uncertainty").expect("registered");
+    let unc = zmp_models::EffectKind::Uncertainty.info();
     let mut se_unc = toml::Table::new();
     for (ch, cu) in Channel::ALL.iter().zip(&ident.uncertainty) {
         let (k, z, p) = cu.weight;
@@ -79,27 +80,28 @@ pub(super) fn build_model(
         let _ = &mut se_unc;
     }
     let mut stderr = toml::Table::new();
-    stderr.insert("pendulum".into(), toml::Value::Table(se_pend));
+    stderr.insert(EffectKind::Pendulum.into(), toml::Value::Table(se_pend));
     if ident.bandwidth.estimated {
         let mut t = toml::Table::new();
         t.insert("omega_n".into(), fl(ident.bandwidth.omega_n_stderr));
         t.insert("zeta".into(), fl(ident.bandwidth.zeta_stderr));
-        stderr.insert("tracking_lowpass".into(), toml::Value::Table(t));
+        stderr.insert(EffectKind::TrackingLowpass.into(), toml::Value::Table(t));
     }
     let wants_limit = opts.include_saturation
         || opts
             .start_model
             .as_ref()
-            .is_some_and(|m| m.has("acceleration_saturation"));
+            .is_some_and(|m| m.has(EffectKind::AccelerationSaturation));
     if let (Some(l), true) = (ident.saturation.limit, wants_limit) {
-        let sat = zmp_models::lookup("acceleration_saturation").expect("registered");
+        let sat = zmp_models::EffectKind::AccelerationSaturation.info();
         for axis in Axis::BOTH {
             // The limit is identified; a start model's other saturation parameters (its
             // passive damping) are kept, as its other effects are.
             let mut values = vec![l.clamp(1e-3, 1e3)];
             if let Some(start) = opts.start_model.as_ref().and_then(|m| {
                 m.effects.iter().find(|e| {
-                    e.info.kind == "acceleration_saturation" && e.binding == Binding::Axis(axis)
+                    e.info.kind == EffectKind::AccelerationSaturation
+                        && e.binding == Binding::Axis(axis)
                 })
             }) {
                 values.extend(start.values.iter().skip(1));
@@ -113,7 +115,10 @@ pub(super) fn build_model(
         if let Some(se) = ident.saturation.limit_stderr {
             let mut t = toml::Table::new();
             t.insert("limit".into(), fl(se));
-            stderr.insert("acceleration_saturation".into(), toml::Value::Table(t));
+            stderr.insert(
+                EffectKind::AccelerationSaturation.into(),
+                toml::Value::Table(t),
+            );
         }
     }
     spec.stderr = stderr;
@@ -189,7 +194,7 @@ pub fn summary_json(ident: &Identification) -> serde_json::Value {
         "parameters": ident.parameters(),
         "bandwidth": ident.bandwidth,
         "saturation": ident.saturation,
-        "uncertainty": ident.uncertainty,
+        EffectKind::Uncertainty: ident.uncertainty,
         "reduced_chi2": ident.reduced_chi2,
         "poor_fit": ident.reduced_chi2 > POOR_FIT,
         "delay_alternative": ident.delay_alternative,

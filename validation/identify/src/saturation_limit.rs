@@ -20,7 +20,7 @@ pub(super) fn estimate_limit(
     linear_demand: f64,
     threads: usize,
 ) -> (Option<f64>, Option<f64>, bool) {
-    let info = zmp_models::lookup("acceleration_saturation").expect("registered effect");
+    let info = zmp_models::EffectKind::AccelerationSaturation.info();
     let h = zmp_models::DEFAULT_STEP;
     let ctx = BuildContext {
         h,
@@ -238,7 +238,7 @@ mod tests {
     /// a linear run it does once: the ratio must be the effect's own `frequency_response`.
     #[test]
     fn limit_runs_match_the_effects_describing_function() {
-        let info = zmp_models::lookup("acceleration_saturation").expect("registered effect");
+        let info = zmp_models::EffectKind::AccelerationSaturation.info();
         let h = zmp_models::DEFAULT_STEP;
         let (wn, zeta) = (28.0, 0.9);
         let ctx = BuildContext {

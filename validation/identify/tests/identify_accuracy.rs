@@ -3,6 +3,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use zmp_identify::{identify, reason, IdentifyOptions};
+use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding, EffectInstance, ModelSpec};
 use zmp_virtual_robot::{simulate_campaign, ExperimentDesign};
 
@@ -14,7 +15,7 @@ fn truth() -> ModelSpec {
     .unwrap();
     for axis in Axis::BOTH {
         spec.insert(EffectInstance {
-            info: zmp_models::lookup("acceleration_saturation").unwrap(),
+            info: zmp_models::EffectKind::AccelerationSaturation.info(),
             binding: Binding::Axis(axis),
             values: vec![1.2],
         });
@@ -36,7 +37,7 @@ fn recovers_the_virtual_silo2() {
     for w in &id.warnings {
         eprintln!("warning: {w}");
     }
-    let pend = spec.get("pendulum", Binding::Global).unwrap();
+    let pend = spec.get(EffectKind::Pendulum, Binding::Global).unwrap();
     let mut worst = 0.0f64;
     for (m, letter) in [(&id.a, 'a'), (&id.b, 'b')] {
         for i in 0..2 {
@@ -82,7 +83,7 @@ fn recovers_the_virtual_silo2() {
     );
     assert!((limit / 1.2 - 1.0).abs() < 0.10, "limit {limit}");
     // The model file stays the seed's linear model unless the limit is asked for.
-    assert!(!id.model.has("acceleration_saturation"));
+    assert!(!id.model.has(EffectKind::AccelerationSaturation));
     let with = identify(
         &camp,
         &IdentifyOptions {
@@ -92,7 +93,7 @@ fn recovers_the_virtual_silo2() {
     )
     .unwrap();
     let put = with.model.value(
-        "acceleration_saturation",
+        EffectKind::AccelerationSaturation,
         Binding::Axis(zmp_models::Axis::X),
         "limit",
     );
@@ -120,10 +121,10 @@ fn recovers_the_virtual_silo2() {
     let text = id.model.to_toml();
     let back = ModelSpec::parse(&text, "identified.toml").unwrap();
     assert_eq!(
-        back.value("pendulum", Binding::Global, "a11"),
+        back.value(EffectKind::Pendulum, Binding::Global, "a11"),
         Some(id.a[0][0].value)
     );
-    assert!(!back.has("acceleration_saturation"));
+    assert!(!back.has(EffectKind::AccelerationSaturation));
     assert!(with.model.to_toml().contains("[acceleration_saturation]"));
     assert!(back.stderr.contains_key("pendulum"));
     assert!(back.provenance.contains_key("date"));

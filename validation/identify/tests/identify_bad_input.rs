@@ -7,6 +7,7 @@ use zmp_identify::{
     analyse_records, identify, reason, write_model, IdentifyError, IdentifyOptions, NoiseSource,
 };
 use zmp_models::logspace;
+use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding, ModelSpec};
 use zmp_virtual_robot::{simulate_campaign, ExperimentDesign};
 
@@ -182,7 +183,7 @@ fn model_file_parses_back_and_is_not_overwritten_without_force() {
             for j in 0..2 {
                 let key = format!("{l}{}{}", i + 1, j + 1);
                 assert_eq!(
-                    back.value("pendulum", Binding::Global, &key),
+                    back.value(EffectKind::Pendulum, Binding::Global, &key),
                     Some(m[i][j].value),
                     "{key}"
                 );

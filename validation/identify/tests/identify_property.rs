@@ -7,6 +7,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use zmp_identify::{identify, IdentifyOptions};
 use zmp_models::logspace;
+use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding, ModelSpec};
 use zmp_virtual_robot::{simulate_campaign, ExperimentDesign};
 
@@ -37,14 +38,24 @@ fn standard_errors_are_calibrated() {
             } else {
                 rng.gen_range(0.005..0.1)
             };
-            spec.set_value("pendulum", Binding::Global, n, v);
+            spec.set_value(EffectKind::Pendulum, Binding::Global, n, v);
             truth.push((format!("pendulum.{n}"), v));
         }
         let wn = rng.gen_range(15.0..60.0);
         let zeta = rng.gen_range(0.5..1.5);
         for axis in Axis::BOTH {
-            spec.set_value("tracking_lowpass", Binding::Axis(axis), "omega_n", wn);
-            spec.set_value("tracking_lowpass", Binding::Axis(axis), "zeta", zeta);
+            spec.set_value(
+                EffectKind::TrackingLowpass,
+                Binding::Axis(axis),
+                "omega_n",
+                wn,
+            );
+            spec.set_value(
+                EffectKind::TrackingLowpass,
+                Binding::Axis(axis),
+                "zeta",
+                zeta,
+            );
         }
         truth.push(("tracking_lowpass.omega_n".into(), wn));
         truth.push(("tracking_lowpass.zeta".into(), zeta));

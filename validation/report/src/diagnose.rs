@@ -6,7 +6,8 @@
 //! steady-state time overlay and the residual spectrum of the worst record, the third
 //! harmonic against frequency, and (diagnosis) the error waterfall.
 
-use crate::plot::{bars_svg, bode_svg, time_svg};
+use crate::html::{esc, STYLE};
+use crate::plot::{bars_svg, bode_svg, frequency_svg, time_svg};
 use anyhow::{Context, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -19,48 +20,79 @@ use zmp_diagnose::run::Diagnosis;
 mod panels;
 use panels::{bode_panels, error_panels, group_bars, harmonic_panel, record_panels, worst};
 
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
-
 /// What a comparison report shows: the campaign's observations against one or more models.
 pub struct Overlay<'a> {
     pub label: &'a str,
     pub predictions: &'a [Prediction],
 }
 
-/// Writes the comparison figures of the last model of `models` into `dir` (time overlays of
-/// `records`, campaign record numbers, or of the worst record); returns the HTML body.
-fn comparison_section(
-    campaign: &Campaign,
+/// Where a report's figures go: its folder, whether existing files are replaced, and the
+/// prefix of their names.
+struct Out<'a> {
+    dir: &'a Path,
+    force: bool,
+    prefix: &'a str,
+}
+
+impl Out<'_> {
+    fn path(&self, name: &str) -> PathBuf {
+        self.dir.join(format!("{}{name}", self.prefix))
+    }
+}
+
+/// The figure at `path`, inline.
+fn inline(path: &Path) -> Result<String> {
+    let svg =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    Ok(format!("<div>{svg}</div>\n"))
+}
+
+/// The Bode overlay of the measured points and `models` under the heading `title`, with the
+/// sentence `note` when it is not empty; returns the HTML.
+fn bode_section(
     obs: &[&Observation],
     models: &[Overlay],
-    dir: &Path,
-    force: bool,
-    prefix: &str,
+    out: &Out,
+    title: &str,
+    note: &str,
+) -> Result<String> {
+    let bode = out.path("bode.svg");
+    bode_svg(&bode, &bode_panels(obs, models), 2, out.force)?;
+    let mut h = format!("<h2>{}</h2>\n", esc(title));
+    if !note.is_empty() {
+        let _ = writeln!(h, "<p>{}</p>", esc(note));
+    }
+    h.push_str(&inline(&bode)?);
+    Ok(h)
+}
+
+/// The figures of one model's `preds` (`model`, named in the headings when not empty): error
+/// against frequency, by amplitude and operating point, time overlays of `records` (campaign
+/// record numbers, else the worst record) and the harmonics; returns the HTML.
+fn model_figures(
+    campaign: &Campaign,
+    obs: &[&Observation],
+    preds: &[Prediction],
+    model: &str,
     records: &[usize],
-) -> Result<(String, Vec<PathBuf>)> {
-    let preds = models.last().expect("one model at least").predictions;
-    let mut files = Vec::new();
+    out: &Out,
+) -> Result<String> {
+    let of = if model.is_empty() {
+        String::new()
+    } else {
+        format!(", {}", esc(model))
+    };
     let mut h = String::new();
-    let bode = dir.join(format!("{prefix}bode.svg"));
-    bode_svg(&bode, &bode_panels(obs, models), 2, force)?;
-    files.push(bode.clone());
-    h.push_str("<h2>Frequency responses: measured points and model</h2>\n");
-    let _ = writeln!(h, "<div>{}</div>", std::fs::read_to_string(&bode)?);
-
-    let err = dir.join(format!("{prefix}error_vs_frequency.svg"));
-    time_svg(&err, &error_panels(obs, preds), force)?;
-    files.push(err.clone());
-    h.push_str(
-        "<h2>Error against frequency (per channel, RMS over operating points; 1 = noise \
-         floor)</h2>\n",
+    let err = out.path("error_vs_frequency.svg");
+    frequency_svg(&err, &error_panels(obs, preds), out.force)?;
+    let _ = writeln!(
+        h,
+        "<h2>Error against frequency{of}</h2>\n<p>Per channel, the RMS over operating points of \
+         error / noise floor; 1 is the noise floor.</p>"
     );
-    let _ = writeln!(h, "<div>{}</div>", std::fs::read_to_string(&err)?);
+    h.push_str(&inline(&err)?);
 
-    let amp = dir.join(format!("{prefix}error_by_amplitude.svg"));
+    let amp = out.path("error_by_amplitude.svg");
     bars_svg(
         &amp,
         "Error / noise floor by amplitude",
@@ -69,27 +101,29 @@ fn comparison_section(
             format!("{:.1} mm", o.nominal_amplitude * 1e3)
         }),
         Some((1.0, "noise floor")),
-        force,
+        out.force,
     )?;
-    let op = dir.join(format!("{prefix}error_by_operating_point.svg"));
+    let op = out.path("error_by_operating_point.svg");
     bars_svg(
         &op,
         "Error / noise floor by operating point",
         "error / floor",
         &group_bars(obs, preds, &|o| {
-            format!("({:.3}, {:.3})", o.operating_point[0], o.operating_point[1])
+            format!(
+                "({:.3}, {:.3}) m",
+                o.operating_point[0], o.operating_point[1]
+            )
         }),
         Some((1.0, "noise floor")),
-        force,
+        out.force,
     )?;
-    files.push(amp.clone());
-    files.push(op.clone());
-    h.push_str("<h2>Error by amplitude and by operating point</h2>\n");
+    let _ = writeln!(h, "<h2>Error by amplitude and by operating point{of}</h2>");
+    // Side by side where the page is wide enough.
     let _ = writeln!(
         h,
-        "<div>{}</div><div>{}</div>",
-        std::fs::read_to_string(&amp)?,
-        std::fs::read_to_string(&op)?
+        "<div class=\"row\">{}{}</div>",
+        inline(&amp)?,
+        inline(&op)?
     );
 
     // The records asked for (by campaign record number), else the worst.
@@ -109,28 +143,25 @@ fn comparison_section(
         let Some((index, panels, spec)) = record_panels(campaign, obs, preds, k) else {
             continue;
         };
-        let t = dir.join(format!("{prefix}record_{index}_time.svg"));
-        time_svg(&t, &panels, force)?;
-        let s = dir.join(format!("{prefix}record_{index}_residual_spectrum.svg"));
-        time_svg(&s, std::slice::from_ref(&spec), force)?;
-        files.push(t.clone());
-        files.push(s.clone());
+        let t = out.path(&format!("record_{index}_time.svg"));
+        time_svg(&t, &panels, out.force)?;
+        let s = out.path(&format!("record_{index}_residual_spectrum.svg"));
+        time_svg(&s, std::slice::from_ref(&spec), out.force)?;
         let _ = writeln!(
             h,
-            "<h2>{what} {index}: steady-state time overlay and residual spectrum</h2>\n\
+            "<h2>{what} {index}: steady-state time overlay and residual spectrum{of}</h2>\n\
              <p>The model's steady state is its first harmonic and trend on the measured mean; \
              what remains (residual) is noise, harmonics the model does not produce, or a \
-             misfit of the fundamental.</p>\n<div>{}</div><div>{}</div>",
-            std::fs::read_to_string(&t)?,
-            std::fs::read_to_string(&s)?
+             misfit of the fundamental.</p>"
         );
+        h.push_str(&inline(&t)?);
+        h.push_str(&inline(&s)?);
     }
-    let hp = dir.join(format!("{prefix}harmonics.svg"));
-    time_svg(&hp, &[harmonic_panel(obs)], force)?;
-    files.push(hp.clone());
+    let hp = out.path("harmonics.svg");
+    frequency_svg(&hp, &[harmonic_panel(obs)], out.force)?;
     h.push_str("<h2>Harmonics</h2>\n");
-    let _ = writeln!(h, "<div>{}</div>", std::fs::read_to_string(&hp)?);
-    Ok((h, files))
+    h.push_str(&inline(&hp)?);
+    Ok(h)
 }
 
 fn cells_table(cells: &[Cell], max: usize) -> String {
@@ -139,7 +170,7 @@ fn cells_table(cells: &[Cell], max: usize) -> String {
         return "<p>No cell is significantly above its noise floor.</p>\n".into();
     }
     let mut h = String::from(
-        "<table><tr><th>channel</th><th>band (rad/s)</th><th>amplitude (mm)</th>\
+        "<table><tr><th class=\"l\">channel</th><th>band (rad/s)</th><th>amplitude (mm)</th>\
          <th>operating point (m)</th><th>records</th><th>error</th><th>noise floor</th>\
          <th>error / floor</th></tr>\n",
     );
@@ -165,10 +196,61 @@ fn cells_table(cells: &[Cell], max: usize) -> String {
     h
 }
 
-const STYLE: &str = "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;}\
-table{border-collapse:collapse;margin:1em 0;}td,th{border:1px solid #ccc;padding:3px 8px;\
-text-align:right;}th{background:#eee;}td.l{text-align:left;}.v{font-size:1.3em;}\
-.ok{color:#070;}.bad{color:#a40;}</style>";
+/// The findings, one row each (parameters one per line), and the candidates tried.
+fn findings_table(d: &Diagnosis) -> String {
+    let f = d.noise_floor;
+    let mut h = String::from("<h2>Findings</h2>\n");
+    if d.findings.is_empty() {
+        h.push_str("<p>No catalogued effect was fitted.</p>\n");
+    } else {
+        h.push_str(
+            "<table><tr><th>#</th><th class=\"l\">effect</th><th class=\"l\">channels</th>\
+             <th class=\"l\">parameters</th>\
+             <th>error before</th><th>error after (held-out)</th><th class=\"l\">evidence</th>\
+             </tr>\n",
+        );
+    }
+    for (k, fd) in d.findings.iter().enumerate() {
+        // Each parameter escaped, then one per line.
+        let params: Vec<String> = fd
+            .parameters
+            .iter()
+            .map(|(n, v)| esc(&format!("{n} = {}", zmp_diagnose::evidence::sig(*v))))
+            .collect();
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td class=\"l\">{}{}</td><td class=\"l\">{}</td>\
+             <td class=\"l nw\">{}</td><td>{:.4}</td><td>{:.4}</td><td class=\"l\">{}</td></tr>",
+            k + 1,
+            esc(&fd.effect),
+            if fd.significant {
+                ""
+            } else {
+                " (not significant)"
+            },
+            fd.channels.join(", "),
+            params.join("<br>"),
+            fd.error_before,
+            fd.error_after,
+            esc(&fd.evidence)
+        );
+    }
+    if !d.findings.is_empty() {
+        h.push_str("</table>\n");
+    }
+    if !d.tried.is_empty() {
+        let _ = writeln!(
+            h,
+            "<p>Every candidate fitted (held-out error / noise floor): {}.</p>",
+            d.tried
+                .iter()
+                .map(|(e, x)| esc(&format!("{e} {:.2}", x / f)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    h
+}
 
 const MEASURE: &str = "<p><b>Error measure</b> (the same everywhere): per record, the RMS over \
 its steady state of the difference between the measured and the modelled response (first \
@@ -207,26 +289,30 @@ pub fn write_compare_report(
     );
     h.push_str("<h2>Where it fails</h2>\n<p>Cells (channel, frequency band, amplitude, operating point) whose error is significantly above their noise floor, worst first.</p>\n");
     h.push_str(&cells_table(cells, 20));
-    let (body, _) = comparison_section(
-        campaign,
-        obs,
-        &[Overlay {
-            label: "model",
-            predictions: preds,
-        }],
+    let out = Out {
         dir,
         force,
+        prefix: "",
+    };
+    let overlay = [Overlay {
+        label: "model",
+        predictions: preds,
+    }];
+    h.push_str(&bode_section(
+        obs,
+        &overlay,
+        &out,
+        "Frequency responses: measured points and model",
         "",
-        records,
-    )?;
-    h.push_str(&body);
+    )?);
+    h.push_str(&model_figures(campaign, obs, preds, "", records, &out)?);
     h.push_str("<p>Next: <code>cargo xtask diagnose</code> names the physical effect that is missing.</p></body></html>\n");
     let html = dir.join("compare.html");
     zmp_files::atomic_write(&html, h.as_bytes(), force)?;
     Ok(html)
 }
 
-/// Diagnosis report; `waterfall` is the error of each model version (label, error) if known.
+/// Diagnosis report of `d` (made on `campaign`) into `dir`; returns the HTML file.
 pub fn write_diagnosis_report(
     campaign: &Campaign,
     d: &Diagnosis,
@@ -246,7 +332,7 @@ pub fn write_diagnosis_report(
         "parameter_refit" => {
             "the structure is right but the parameters are off: identify again".to_string()
         }
-        e => format!("the model is missing <b>{e}</b>"),
+        e => format!("the model is missing <b>{}</b>", esc(e)),
     };
     let _ = writeln!(
         h,
@@ -261,37 +347,7 @@ pub fn write_diagnosis_report(
         d.baseline_error / f,
         d.records
     );
-    h.push_str("<h2>Findings</h2>\n<table><tr><th>#</th><th>effect</th><th>channels</th><th>parameters</th><th>error before</th><th>error after (held-out)</th><th class=\"l\">evidence</th></tr>\n");
-    for (k, fd) in d.findings.iter().enumerate() {
-        let params: Vec<String> = fd
-            .parameters
-            .iter()
-            .map(|(n, v)| format!("{n} = {}", zmp_diagnose::evidence::sig(*v)))
-            .collect();
-        let _ = writeln!(
-            h,
-            "<tr><td>{}</td><td class=\"l\">{}{}</td><td class=\"l\">{}</td><td class=\"l\">{}</td>\
-             <td>{:.4}</td><td>{:.4}</td><td class=\"l\">{}</td></tr>",
-            k + 1,
-            esc(&fd.effect),
-            if fd.significant { "" } else { " (not significant)" },
-            fd.channels.join(", "),
-            esc(&params.join("<br>")),
-            fd.error_before,
-            fd.error_after,
-            esc(&fd.evidence)
-        );
-    }
-    h.push_str("</table>\n");
-    let _ = writeln!(
-        h,
-        "<p>Every candidate fitted (held-out error / noise floor): {}.</p>",
-        d.tried
-            .iter()
-            .map(|(e, x)| format!("{e} {:.2}", x / f))
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
+    h.push_str(&findings_table(d));
     // Waterfall.
     let mut bars = vec![("model as given".to_string(), d.baseline_error)];
     if d.refit_error.is_finite() {
@@ -310,38 +366,58 @@ pub fn write_diagnosis_report(
         force,
     )?;
     h.push_str("<h2>Error waterfall</h2>\n");
-    let _ = writeln!(h, "<div>{}</div>", std::fs::read_to_string(&wf)?);
-    if !d.selected.is_empty() {
-        h.push_str("<h2>Before and after</h2>\n<p>Dashed: the model as given; solid: with the effects found (fitted on every record).</p>\n");
-    }
-    let overlays: Vec<Overlay> = if d.selected.is_empty() {
-        vec![Overlay {
+    h.push_str(&inline(&wf)?);
+    let out = Out {
+        dir,
+        force,
+        prefix: "diagnosis_",
+    };
+    let found = "with the effects found";
+    if d.selected.is_empty() {
+        let overlay = [Overlay {
             label: "model",
             predictions: &d.base_predictions,
-        }]
+        }];
+        h.push_str(&bode_section(
+            &obs,
+            &overlay,
+            &out,
+            "Frequency responses: measured points and model",
+            "",
+        )?);
     } else {
-        vec![
+        let overlays = [
             Overlay {
                 label: "model as given",
                 predictions: &d.base_predictions,
             },
             Overlay {
-                label: "with the effects found",
+                label: found,
                 predictions: &d.final_predictions,
             },
-        ]
-    };
-    let (body, _) = comparison_section(campaign, &obs, &overlays, dir, force, "diagnosis_", &[])?;
+        ];
+        h.push_str(&bode_section(
+            &obs,
+            &overlays,
+            &out,
+            "Before and after",
+            "Frequency responses. Points: measured; dashed: the model as given; solid: with \
+             the effects found (fitted on every record).",
+        )?);
+    }
     h.push_str("<h2>Where the model as given fails</h2>\n");
     h.push_str(&cells_table(&d.cells, 12));
-    if !d.selected.is_empty() {
+    let (preds, model) = if d.selected.is_empty() {
+        (&d.base_predictions, "")
+    } else {
         h.push_str("<h2>Where it still fails with the effects found</h2>\n");
         h.push_str(&cells_table(
             &zmp_diagnose::cells::cells(&obs, &d.final_predictions),
             12,
         ));
-    }
-    h.push_str(&body);
+        (&d.final_predictions, found)
+    };
+    h.push_str(&model_figures(campaign, &obs, preds, model, &[], &out)?);
     h.push_str("</body></html>\n");
     let html = dir.join("diagnosis.html");
     zmp_files::atomic_write(&html, h.as_bytes(), force)?;

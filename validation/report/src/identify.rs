@@ -4,6 +4,7 @@
 //! uncertainty database with its weights (figures 15-16), the parameter table with confidence
 //! intervals against the seed's SILO2 values, the excluded records and the warnings.
 
+use crate::html::{esc, STYLE};
 use crate::plot::{bode_svg, Band, BodePanel, BodeSeries, PALETTE};
 use anyhow::{Context, Result};
 use num_complex::Complex64;
@@ -14,12 +15,6 @@ use zmp_models::effects::tracking_lowpass::TrackingLowpass;
 use zmp_models::effects::uncertainty::weight;
 use zmp_models::logspace;
 use zmp_models::Channel;
-
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
 
 /// The Bode panel of one channel.
 pub fn channel_panel(ident: &Identification, ch: Channel) -> BodePanel {
@@ -39,7 +34,7 @@ pub fn channel_panel(ident: &Identification, ch: Channel) -> BodePanel {
     let w = logspace(lo, hi, 300);
     let g: Vec<Complex64> = w.iter().map(|&x| ident.model_response(i, j, x)).collect();
     let seed = |x: f64| {
-        let (a, b) = (SEED_PENDULUM[2 * i + j].1, SEED_PENDULUM[4 + 2 * i + j].1);
+        let (a, b) = (SEED_PENDULUM.a[i][j], SEED_PENDULUM.b[i][j]);
         (a + b * x * x)
             * TrackingLowpass {
                 omega_n: SEED_BANDWIDTH.0,
@@ -56,7 +51,7 @@ pub fn channel_panel(ident: &Identification, ch: Channel) -> BodePanel {
         used.iter().map(|r| r.g[i]).collect(),
         PALETTE[1],
     );
-    pts.magnitude_error = Some(used.iter().map(|r| 2.0 * r.sigma[i]).collect());
+    pts.magnitude_error = Some(used.iter().map(|r| r.sigma[i]).collect());
     series.push(pts);
     let sat: Vec<_> = recs.iter().filter(|r| r.excluded.is_some()).collect();
     if !sat.is_empty() {
@@ -102,6 +97,7 @@ pub fn channel_panel(ident: &Identification, ch: Channel) -> BodePanel {
             upper_db,
             color: PALETTE[0],
         }],
+        magnitude_only: false,
     }
 }
 
@@ -148,6 +144,8 @@ fn uncertainty_panel(ident: &Identification, c: usize) -> BodePanel {
             ),
         ],
         bands: vec![],
+        // The points are magnitudes; the seed's figures 15-16 show magnitudes alone.
+        magnitude_only: true,
     }
 }
 
@@ -172,68 +170,20 @@ fn fmt_v(v: f64) -> String {
     }
 }
 
-/// Writes the report into `dir` (created if needed; existing files need `force`).
-pub fn write_report(ident: &Identification, dir: &Path, force: bool) -> Result<ReportFiles> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut bode = Vec::new();
-    let mut panels = Vec::new();
-    for ch in Channel::ALL {
-        let panel = channel_panel(ident, ch);
-        let path = dir.join(format!("bode_{}.svg", ch.name()));
-        bode_svg(&path, std::slice::from_ref(&panel), 1, force)?;
-        bode.push(path);
-        panels.push(panel);
-    }
-    let bode_all = dir.join("bode_all.svg");
-    bode_svg(&bode_all, &panels, 2, force)?;
-    let unc: Vec<BodePanel> = (0..4).map(|c| uncertainty_panel(ident, c)).collect();
-    let uncertainty = dir.join("uncertainty.svg");
-    bode_svg(&uncertainty, &unc, 2, force)?;
-
+/// The parameters (with 95 % intervals and the seed's values) and the uncertainty weights.
+fn parameter_tables(ident: &Identification) -> String {
     let mut h = String::new();
-    let title = format!(
-        "ZMP model identification: {}",
-        ident.campaign_name.as_deref().unwrap_or("campaign")
-    );
-    let _ = write!(
-        h,
-        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{}</title>\n<style>\
-         body{{font-family:sans-serif;max-width:1100px;margin:2em auto;}}\
-         table{{border-collapse:collapse;margin:1em 0;}}td,th{{border:1px solid #ccc;\
-         padding:3px 8px;text-align:right;}}th{{background:#eee;}}td.l{{text-align:left;}}\
-         .warn{{color:#a40;}}</style></head><body>\n<h1>{}</h1>\n",
-        esc(&title),
-        esc(&title)
-    );
-    let used = ident.used().count();
-    let _ = writeln!(
-        h,
-        "<p>{} records, {} used in the linear fit; reduced chi-square {:.3}; harmonic \
-         regression per record, joint weighted Levenberg-Marquardt fit of \
-         G<sub>ij</sub> = (a<sub>ij</sub> + b<sub>ij</sub> w<sup>2</sup>) H(jw) (first seed, \
-         section 5). Tool: zmp-toolkit {}.</p>",
-        ident.records.len(),
-        used,
-        ident.reduced_chi2,
-        env!("CARGO_PKG_VERSION")
-    );
-    if !ident.warnings.is_empty() {
-        h.push_str("<h2>Warnings</h2><ul>\n");
-        for w in &ident.warnings {
-            let _ = writeln!(h, "<li class=\"warn\">{}</li>", esc(w));
-        }
-        h.push_str("</ul>\n");
-    }
     h.push_str(
-        "<h2>Parameters</h2>\n<table><tr><th>parameter</th><th>value</th><th>std. error</th>\
-         <th>95 % CI</th><th>seed (SILO2)</th><th>source</th></tr>\n",
+        "<h2>Parameters</h2>\n<table><tr><th class=\"l\">parameter</th><th>value</th>\
+         <th>std. error</th><th>95 % CI</th><th>seed (SILO2)</th><th class=\"l\">source</th></tr>\n",
     );
     for p in ident.parameters() {
         let short = p.name.rsplit('.').next().unwrap_or(&p.name);
         let seed = SEED_PENDULUM
-            .iter()
+            .named()
+            .into_iter()
             .find(|(n, _)| *n == short && p.name.starts_with("pendulum"))
-            .map(|(_, v)| *v)
+            .map(|(_, v)| v)
             .or(match p.name.as_str() {
                 "tracking_lowpass.omega_n" => Some(SEED_BANDWIDTH.0),
                 "tracking_lowpass.zeta" => Some(SEED_BANDWIDTH.1),
@@ -256,7 +206,7 @@ pub fn write_report(ident: &Identification, dir: &Path, force: bool) -> Result<R
     h.push_str("</table>\n");
     let _ = writeln!(h, "<p>{}</p>", esc(&ident.bandwidth.note));
     h.push_str(
-        "<h2>Uncertainty weights</h2>\n<table><tr><th>channel</th><th>k</th><th>z (rad/s)</th>\
+        "<h2>Uncertainty weights</h2>\n<table><tr><th class=\"l\">channel</th><th>k</th><th>z (rad/s)</th>\
          <th>p (rad/s)</th></tr>\n",
     );
     for u in &ident.uncertainty {
@@ -270,13 +220,13 @@ pub fn write_report(ident: &Identification, dir: &Path, force: bool) -> Result<R
             fmt_v(p)
         );
     }
-    h.push_str("</table>\n<h2>Bode diagrams (seed figures 11-14)</h2>\n");
-    for p in &bode {
-        let svg = std::fs::read_to_string(p)?;
-        let _ = writeln!(h, "<div>{svg}</div>");
-    }
-    h.push_str("<h2>Uncertainty database (seed figures 15-16)</h2>\n");
-    let _ = writeln!(h, "<div>{}</div>", std::fs::read_to_string(&uncertainty)?);
+    h.push_str("</table>\n");
+    h
+}
+
+/// The excluded records (why each) and every record's analysis.
+fn record_tables(ident: &Identification) -> String {
+    let mut h = String::new();
     h.push_str("<h2>Excluded records</h2>\n");
     let ex: Vec<_> = ident
         .records
@@ -330,7 +280,66 @@ pub fn write_report(ident: &Identification, dir: &Path, force: bool) -> Result<R
             1000.0 * r.noise_std[1]
         );
     }
-    h.push_str("</table>\n</body></html>\n");
+    h.push_str("</table>\n");
+    h
+}
+
+/// Writes the report into `dir` (created if needed; existing files need `force`).
+pub fn write_report(ident: &Identification, dir: &Path, force: bool) -> Result<ReportFiles> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut bode = Vec::new();
+    let mut panels = Vec::new();
+    for ch in Channel::ALL {
+        let panel = channel_panel(ident, ch);
+        let path = dir.join(format!("bode_{}.svg", ch.name()));
+        bode_svg(&path, std::slice::from_ref(&panel), 1, force)?;
+        bode.push(path);
+        panels.push(panel);
+    }
+    let bode_all = dir.join("bode_all.svg");
+    bode_svg(&bode_all, &panels, 2, force)?;
+    let unc: Vec<BodePanel> = (0..4).map(|c| uncertainty_panel(ident, c)).collect();
+    let uncertainty = dir.join("uncertainty.svg");
+    bode_svg(&uncertainty, &unc, 2, force)?;
+
+    let mut h = String::new();
+    let title = format!(
+        "ZMP model identification: {}",
+        ident.campaign_name.as_deref().unwrap_or("campaign")
+    );
+    let _ = writeln!(
+        h,
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{0}</title>{STYLE}</head>\
+         <body>\n<h1>{0}</h1>",
+        esc(&title)
+    );
+    let used = ident.used().count();
+    let _ = writeln!(
+        h,
+        "<p>{} records, {} used in the linear fit; reduced chi-square {:.3}; harmonic \
+         regression per record, joint weighted Levenberg-Marquardt fit of \
+         G<sub>ij</sub> = (a<sub>ij</sub> + b<sub>ij</sub> w<sup>2</sup>) H(jw) (first seed, \
+         section 5). Tool: zmp-toolkit {}.</p>",
+        ident.records.len(),
+        used,
+        ident.reduced_chi2,
+        env!("CARGO_PKG_VERSION")
+    );
+    if !ident.warnings.is_empty() {
+        h.push_str("<h2>Warnings</h2><ul>\n");
+        for w in &ident.warnings {
+            let _ = writeln!(h, "<li class=\"warn\">{}</li>", esc(w));
+        }
+        h.push_str("</ul>\n");
+    }
+    h.push_str(&parameter_tables(ident));
+    // The four channels side by side (the single diagrams are written beside the report).
+    h.push_str("<h2>Bode diagrams (seed figures 11-14)</h2>\n");
+    let _ = writeln!(h, "<div>{}</div>", std::fs::read_to_string(&bode_all)?);
+    h.push_str("<h2>Uncertainty database (seed figures 15-16)</h2>\n");
+    let _ = writeln!(h, "<div>{}</div>", std::fs::read_to_string(&uncertainty)?);
+    h.push_str(&record_tables(ident));
+    h.push_str("</body></html>\n");
     let html = dir.join("report.html");
     zmp_files::atomic_write(&html, h.as_bytes(), force)?;
     Ok(ReportFiles {

@@ -1,11 +1,26 @@
-//! Figures as self-contained SVG: Bode diagrams (magnitude and phase over log frequency), time
-//! overlays and bar charts. Rendered in memory, written atomically.
+//! Figures as self-contained SVG: Bode diagrams (magnitude and phase over log frequency,
+//! [`bode_svg`]), time overlays ([`time_svg`]), curves against log frequency
+//! ([`frequency_svg`]) and bar charts ([`bars_svg`]). Each plot's key is a row above it, never
+//! over the data. Rendered in memory, written atomically.
 
 use anyhow::{anyhow, Result};
 use num_complex::Complex64;
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
 use zmp_files::atomic_write;
+
+mod bars;
+mod legend;
+mod time;
+
+/// Font sizes as plotters takes them; its SVG backend writes `size / 1.24` px, so titles are
+/// 16 px, tick labels, keys and values 12 px, axis descriptions 13 px on the page.
+const TITLE: u32 = 20;
+const LABEL: u32 = 15;
+const DESC: u32 = 16;
+pub use bars::bars_svg;
+pub use time::{frequency_svg, time_svg, TimePanel, TimeSeries};
 
 /// Line colours, in order of use.
 pub const PALETTE: [RGBColor; 6] = [
@@ -33,7 +48,8 @@ pub struct BodeSeries {
     pub value: Vec<Complex64>,
     pub style: Style,
     pub color: RGBColor,
-    /// Optional 1-sigma magnitude error (same unit as |value|) drawn as error bars on points.
+    /// Optional 1-sigma magnitude error (same unit as |value|), drawn as 2-sigma error bars on
+    /// points.
     pub magnitude_error: Option<Vec<f64>>,
 }
 
@@ -92,6 +108,8 @@ pub struct BodePanel {
     pub title: String,
     pub series: Vec<BodeSeries>,
     pub bands: Vec<Band>,
+    /// Magnitude alone (the series' phase means nothing, e.g. error magnitudes).
+    pub magnitude_only: bool,
 }
 
 pub fn db(v: Complex64) -> f64 {
@@ -138,10 +156,10 @@ fn e<T: std::fmt::Debug>(x: T) -> anyhow::Error {
     anyhow!("plotting: {x:?}")
 }
 
-fn draw_bode<DB: DrawingBackend>(
-    area: &DrawingArea<DB, plotters::coord::Shift>,
-    panel: &BodePanel,
-) -> Result<()>
+/// Width of a Bode diagram's y label area, px (the legend's keys start there too).
+const BODE_LEFT: i32 = 68;
+
+fn draw_bode<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, panel: &BodePanel) -> Result<()>
 where
     DB::ErrorType: 'static,
 {
@@ -166,21 +184,37 @@ where
         finite_range(phases.iter().flatten().copied()).unwrap_or((-10.0, 10.0)),
         20.0,
     );
-    let (top, bottom) = area.split_vertically(area.dim_in_pixel().1 * 55 / 100);
-
+    let area = area
+        .titled(&panel.title, ("sans-serif", TITLE))
+        .map_err(e)?;
+    let items = legend::bode_items(&panel.bands, &panel.series);
+    let width = area.dim_in_pixel().0;
+    let (keys, area) = area.split_vertically(legend::height(&items, BODE_LEFT, width));
+    legend::draw(&keys, &items, BODE_LEFT)?;
+    let (top, bottom) = if panel.magnitude_only {
+        (area, None)
+    } else {
+        let (t, b) = area.split_vertically(area.dim_in_pixel().1 * 52 / 100);
+        (t, Some(b))
+    };
     let mut mag = ChartBuilder::on(&top)
-        .caption(&panel.title, ("sans-serif", 18))
         .margin(6)
-        .x_label_area_size(22)
-        .y_label_area_size(52)
+        // The last x label is centred on the axis' end: room for its right half.
+        .margin_right(16)
+        .x_label_area_size(if bottom.is_some() { 22 } else { 38 })
+        .y_label_area_size(BODE_LEFT as u32 - 6)
         .build_cartesian_2d((wlo..whi).log_scale(), mlo..mhi)
         .map_err(e)?;
-    mag.configure_mesh()
-        .y_desc("magnitude (dB)")
+    let mut mesh = mag.configure_mesh();
+    mesh.y_desc("magnitude (dB)")
         .x_labels(6)
         .y_labels(6)
-        .draw()
-        .map_err(e)?;
+        .label_style(("sans-serif", LABEL))
+        .axis_desc_style(("sans-serif", DESC));
+    if bottom.is_none() {
+        mesh.x_desc("omega (rad/s)");
+    }
+    mesh.draw().map_err(e)?;
     for b in &panel.bands {
         let mut poly: Vec<(f64, f64)> = b
             .omega
@@ -199,11 +233,7 @@ where
             poly,
             b.color.mix(0.18).filled(),
         )))
-        .map_err(e)?
-        .label(b.label.clone())
-        .legend(move |(x, y)| {
-            Rectangle::new([(x, y - 4), (x + 14, y + 4)], b.color.mix(0.3).filled())
-        });
+        .map_err(e)?;
     }
     for s in &panel.series {
         let pts: Vec<(f64, f64)> = s
@@ -212,7 +242,7 @@ where
             .copied()
             .zip(s.value.iter().map(|v| db(*v)))
             .collect();
-        draw_series(&mut mag, s, &pts)?;
+        draw_curve(&mut mag, s.style, s.color, &pts)?;
         if let (Some(err), Style::Points) = (&s.magnitude_error, s.style) {
             let c = s.color;
             mag.draw_series(s.omega.iter().zip(s.value.iter()).zip(err.iter()).map(
@@ -226,17 +256,15 @@ where
             .map_err(e)?;
         }
     }
-    mag.configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 12))
-        .draw()
-        .map_err(e)?;
-
+    let Some(bottom) = bottom else {
+        return Ok(());
+    };
     let mut ph = ChartBuilder::on(&bottom)
         .margin(6)
-        .x_label_area_size(34)
-        .y_label_area_size(52)
+        // The last x label is centred on the axis' end: room for its right half.
+        .margin_right(16)
+        .x_label_area_size(38)
+        .y_label_area_size(BODE_LEFT as u32 - 6)
         .build_cartesian_2d((wlo..whi).log_scale(), plo..phi)
         .map_err(e)?;
     ph.configure_mesh()
@@ -244,54 +272,48 @@ where
         .y_desc("phase (deg)")
         .x_labels(6)
         .y_labels(6)
+        .label_style(("sans-serif", LABEL))
+        .axis_desc_style(("sans-serif", DESC))
         .draw()
         .map_err(e)?;
     for (s, p) in panel.series.iter().zip(&phases) {
         let pts: Vec<(f64, f64)> = s.omega.iter().copied().zip(p.iter().copied()).collect();
-        draw_series(&mut ph, s, &pts)?;
+        draw_curve(&mut ph, s.style, s.color, &pts)?;
     }
     Ok(())
 }
 
-fn draw_series<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+/// Draws one curve (or point set) in `style` and `color`; points that are not finite are
+/// left out.
+fn draw_curve<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
     chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
-    s: &BodeSeries,
+    style: Style,
+    c: RGBColor,
     pts: &[(f64, f64)],
 ) -> Result<()>
 where
     DB::ErrorType: 'static,
 {
-    let c = s.color;
     let pts: Vec<(f64, f64)> = pts
         .iter()
         .copied()
         .filter(|(x, y)| x.is_finite() && y.is_finite())
         .collect();
-    match s.style {
+    match style {
         Style::Line => {
             chart
                 .draw_series(LineSeries::new(pts, c.stroke_width(2)))
-                .map_err(e)?
-                .label(s.label.clone())
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 14, y)], c.stroke_width(2))
-                });
+                .map_err(e)?;
         }
         Style::Dashed => {
             chart
                 .draw_series(DashedLineSeries::new(pts, 6, 4, c.stroke_width(2)))
-                .map_err(e)?
-                .label(s.label.clone())
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 14, y)], c.stroke_width(1))
-                });
+                .map_err(e)?;
         }
         Style::Points => {
             chart
                 .draw_series(pts.into_iter().map(move |p| Circle::new(p, 3, c.filled())))
-                .map_err(e)?
-                .label(s.label.clone())
-                .legend(move |(x, y)| Circle::new((x + 7, y), 3, c.filled()));
+                .map_err(e)?;
         }
     }
     Ok(())
@@ -301,7 +323,12 @@ where
 pub fn bode_svg(path: &Path, panels: &[BodePanel], cols: usize, overwrite: bool) -> Result<()> {
     let cols = cols.max(1);
     let rows = panels.len().div_ceil(cols).max(1);
-    let (w, h) = (520 * cols as u32, 460 * rows as u32);
+    let h_panel = if panels.iter().all(|p| p.magnitude_only) {
+        300
+    } else {
+        490
+    };
+    let (w, h) = (520 * cols as u32, h_panel * rows as u32);
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
@@ -309,188 +336,6 @@ pub fn bode_svg(path: &Path, panels: &[BodePanel], cols: usize, overwrite: bool)
         let cells = root.split_evenly((rows, cols));
         for (cell, panel) in cells.iter().zip(panels) {
             draw_bode(cell, panel)?;
-        }
-        root.present().map_err(e)?;
-    }
-    atomic_write(path, svg.as_bytes(), overwrite)
-}
-
-/// One curve of a time plot.
-#[derive(Debug, Clone)]
-pub struct TimeSeries {
-    pub label: String,
-    pub t: Vec<f64>,
-    pub y: Vec<f64>,
-    pub color: RGBColor,
-    pub style: Style,
-}
-
-/// One panel of a time plot: shared x axis, its own y axis.
-#[derive(Debug, Clone, Default)]
-pub struct TimePanel {
-    pub title: String,
-    pub y_label: String,
-    pub series: Vec<TimeSeries>,
-    /// Vertical markers: (time, label).
-    pub markers: Vec<(f64, String)>,
-    /// Label of the x axis (default `t (s)`).
-    pub x_label: Option<String>,
-}
-
-/// Stacked time panels in one SVG file.
-pub fn time_svg(path: &Path, panels: &[TimePanel], overwrite: bool) -> Result<()> {
-    let (w, h) = (900u32, 300 * panels.len().max(1) as u32);
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(e)?;
-        let cells = root.split_evenly((panels.len().max(1), 1));
-        for (cell, p) in cells.iter().zip(panels) {
-            let (tlo, thi) = finite_range(p.series.iter().flat_map(|s| s.t.iter().copied()))
-                .unwrap_or((0.0, 1.0));
-            let (ylo, yhi) = pad(
-                finite_range(p.series.iter().flat_map(|s| s.y.iter().copied()))
-                    .unwrap_or((-1.0, 1.0)),
-                1e-9,
-            );
-            let mut chart = ChartBuilder::on(cell)
-                .caption(&p.title, ("sans-serif", 17))
-                .margin(8)
-                .x_label_area_size(34)
-                .y_label_area_size(64)
-                .build_cartesian_2d(tlo..thi, ylo..yhi)
-                .map_err(e)?;
-            chart
-                .configure_mesh()
-                .x_desc(p.x_label.as_deref().unwrap_or("t (s)"))
-                .y_desc(p.y_label.as_str())
-                .draw()
-                .map_err(e)?;
-            for (t, label) in &p.markers {
-                chart
-                    .draw_series(std::iter::once(PathElement::new(
-                        vec![(*t, ylo), (*t, yhi)],
-                        BLACK.mix(0.4).stroke_width(1),
-                    )))
-                    .map_err(e)?;
-                chart
-                    .draw_series(std::iter::once(Text::new(
-                        label.clone(),
-                        (*t, yhi - 0.06 * (yhi - ylo)),
-                        ("sans-serif", 12),
-                    )))
-                    .map_err(e)?;
-            }
-            for s in &p.series {
-                let b = BodeSeries {
-                    label: s.label.clone(),
-                    omega: vec![],
-                    value: vec![],
-                    style: s.style,
-                    color: s.color,
-                    magnitude_error: None,
-                };
-                let pts: Vec<(f64, f64)> = s.t.iter().copied().zip(s.y.iter().copied()).collect();
-                draw_series(&mut chart, &b, &pts)?;
-            }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::LowerRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 12))
-                .draw()
-                .map_err(e)?;
-        }
-        root.present().map_err(e)?;
-    }
-    atomic_write(path, svg.as_bytes(), overwrite)
-}
-
-/// A horizontal list of labelled bars (e.g. an error waterfall), with an optional reference
-/// line (e.g. the noise floor).
-pub fn bars_svg(
-    path: &Path,
-    title: &str,
-    y_label: &str,
-    bars: &[(String, f64)],
-    reference: Option<(f64, &str)>,
-    overwrite: bool,
-) -> Result<()> {
-    let (w, h) = ((160 * bars.len().max(3)) as u32 + 120, 420u32);
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(e)?;
-        let top = bars
-            .iter()
-            .map(|b| b.1)
-            .chain(reference.map(|r| r.0))
-            .filter(|v| v.is_finite())
-            .fold(0.0, f64::max)
-            * 1.15;
-        let top = if top > 0.0 { top } else { 1.0 };
-        let n = bars.len();
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 18))
-            .margin(10)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0f64..n.max(1) as f64, 0f64..top)
-            .map_err(e)?;
-        let labels: Vec<String> = bars.iter().map(|b| b.0.clone()).collect();
-        chart
-            .configure_mesh()
-            .disable_x_mesh()
-            .x_labels(n.max(1))
-            .x_label_formatter(&|x| {
-                let i = (*x - 0.5).round();
-                if (x - 0.5 - i).abs() < 1e-6 && i >= 0.0 {
-                    labels.get(i as usize).cloned().unwrap_or_default()
-                } else {
-                    String::new()
-                }
-            })
-            .y_desc(y_label)
-            .draw()
-            .map_err(e)?;
-        chart
-            .draw_series(bars.iter().enumerate().map(|(i, b)| {
-                Rectangle::new(
-                    [(i as f64 + 0.15, 0.0), (i as f64 + 0.85, b.1.max(0.0))],
-                    PALETTE[i % PALETTE.len()].filled(),
-                )
-            }))
-            .map_err(e)?;
-        chart
-            .draw_series(bars.iter().enumerate().map(|(i, b)| {
-                Text::new(
-                    format!("{}: {:.4}", b.0, b.1),
-                    (i as f64 + 0.17, b.1 + 0.03 * top),
-                    ("sans-serif", 12),
-                )
-            }))
-            .map_err(e)?;
-        if let Some((v, label)) = reference {
-            let label = label.to_string();
-            chart
-                .draw_series(DashedLineSeries::new(
-                    vec![(0.0, v), (n as f64, v)],
-                    6,
-                    4,
-                    BLACK.stroke_width(1),
-                ))
-                .map_err(e)?
-                .label(label)
-                .legend(|(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 14, y)], BLACK.stroke_width(1))
-                });
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .draw()
-                .map_err(e)?;
         }
         root.present().map_err(e)?;
     }
@@ -524,6 +369,7 @@ mod tests {
             title: "G11".into(),
             series: vec![BodeSeries::line("model", w.clone(), g.clone(), PALETTE[0])],
             bands: vec![],
+            magnitude_only: false,
         };
         let p = d.path().join("bode.svg");
         bode_svg(&p, &[panel.clone(), panel], 2, false).unwrap();
@@ -552,5 +398,53 @@ mod tests {
             false,
         )
         .unwrap();
+        let b = texts(&std::fs::read_to_string(d.path().join("b.svg")).unwrap());
+        // Names under the bars, values over them, the reference in the key.
+        for text in ["v1", "v2", "0.2000", "0.0100", "noise 0.0050"] {
+            assert!(
+                b.iter().any(|t| t == text),
+                "no {text} in the bar chart: {b:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_tick_at_zero_reads_zero() {
+        // A symmetric range whose ticks come out of floating-point steps: the one at zero
+        // must not print as "-0.0" (it did on the SABIAN walking figures).
+        let d = tempfile::tempdir().unwrap();
+        let t: Vec<f64> = (0..50).map(|k| k as f64 * 0.1).collect();
+        let panel = TimePanel {
+            title: "ZMP y".into(),
+            y_label: "m".into(),
+            series: vec![TimeSeries {
+                label: "y".into(),
+                y: t.iter().map(|x| 0.11 * x.sin()).collect(),
+                t,
+                color: PALETTE[0],
+                style: Style::Line,
+            }],
+            ..Default::default()
+        };
+        let p = d.path().join("t.svg");
+        time_svg(&p, &[panel], false).unwrap();
+        let s = texts(&std::fs::read_to_string(p).unwrap());
+        // "0.0" twice: t = 0 and the y tick at zero.
+        assert_eq!(s.iter().filter(|t| *t == "0.0").count(), 2, "{s:?}");
+        assert!(
+            !s.iter().any(|t| t == "-0.0"),
+            "a tick at zero reads -0.0: {s:?}"
+        );
+    }
+
+    /// The texts of an SVG's `<text>` elements.
+    fn texts(svg: &str) -> Vec<String> {
+        svg.split("<text")
+            .skip(1)
+            .filter_map(|t| {
+                let body = &t[t.find('>')? + 1..];
+                Some(body[..body.find("</text>")?].trim().to_string())
+            })
+            .collect()
     }
 }

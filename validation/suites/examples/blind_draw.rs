@@ -4,6 +4,7 @@
 
 use zmp_diagnose::{diagnose, DiagnoseOptions};
 use zmp_identify::{identify, IdentifyOptions};
+use zmp_models::EffectKind;
 use zmp_suites::blind::{draw_with, paper};
 
 fn main() -> anyhow::Result<()> {
@@ -17,7 +18,7 @@ fn main() -> anyhow::Result<()> {
     if draw.diagonal_model {
         let mut m = paper();
         for p in ["a12", "a21", "b12", "b21"] {
-            m.set_value("pendulum", zmp_models::Binding::Global, p, 0.0);
+            m.set_value(EffectKind::Pendulum, zmp_models::Binding::Global, p, 0.0);
         }
         opts.start_model = Some(m);
     }

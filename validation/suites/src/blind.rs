@@ -7,8 +7,13 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use zmp_diagnose::candidates::add_effect;
 use zmp_models::logspace;
-use zmp_models::{Axis, Binding, ModelSpec};
+use zmp_models::{Axis, Binding, EffectKind, ModelSpec};
 use zmp_virtual_robot::ExperimentDesign;
+
+/// The model effect a draw names (`effect` is a catalogue name that is also a model kind).
+fn kind(effect: &str) -> EffectKind {
+    EffectKind::parse(effect).expect("a model effect")
+}
 
 /// The effects a draw can hide (the diagnosis catalogue).
 pub const EFFECTS: [&str; 9] = [
@@ -87,28 +92,32 @@ pub fn hide(
     design: &ExperimentDesign,
 ) -> String {
     let (wn, zeta) = (
-        spec.value("tracking_lowpass", Binding::Axis(Axis::X), "omega_n")
-            .unwrap_or(30.0),
-        spec.value("tracking_lowpass", Binding::Axis(Axis::X), "zeta")
+        spec.value(
+            EffectKind::TrackingLowpass,
+            Binding::Axis(Axis::X),
+            "omega_n",
+        )
+        .unwrap_or(30.0),
+        spec.value(EffectKind::TrackingLowpass, Binding::Axis(Axis::X), "zeta")
             .unwrap_or(1.0),
     );
     match effect {
         "time_delay" => {
             let b = axes(rng);
             let d = log_uniform(rng, 0.015, 0.08);
-            add_effect(spec, effect, &b, &[d]);
+            add_effect(spec, kind(effect), &b, &[d]);
             format!("time_delay {} {:.1} ms", names(&b), d * 1e3)
         }
         "backlash" => {
             let b = axes(rng);
             let w = log_uniform(rng, 0.0006, 0.002);
-            add_effect(spec, effect, &b, &[w]);
+            add_effect(spec, kind(effect), &b, &[w]);
             format!("backlash {} {:.2} mm", names(&b), w * 1e3)
         }
         "coulomb_friction" => {
             let b = axes(rng);
             let f = log_uniform(rng, 0.15, 0.8);
-            add_effect(spec, effect, &b, &[f]);
+            add_effect(spec, kind(effect), &b, &[f]);
             format!("coulomb_friction {} {:.3} m/s2", names(&b), f)
         }
         "acceleration_saturation" => {
@@ -119,20 +128,20 @@ pub fn hide(
             let peak = w * w * h * a;
             let b = vec![Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
             let l = peak * rng.gen_range(0.35..0.7);
-            add_effect(spec, effect, &b, &[l]);
+            add_effect(spec, kind(effect), &b, &[l]);
             format!("acceleration_saturation {} {:.3} m/s2", names(&b), l)
         }
         "structural_mode" => {
             let b = axes(rng);
             let w = log_uniform(rng, 3.0, 20.0);
             let z = log_uniform(rng, 0.1, 0.35);
-            add_effect(spec, effect, &b, &[w, z]);
+            add_effect(spec, kind(effect), &b, &[w, z]);
             format!("structural_mode {} {:.2} rad/s zeta {:.3}", names(&b), w, z)
         }
         "sensor_lowpass" => {
             let b = axes(rng);
             let c = log_uniform(rng, 6.0, 40.0);
-            add_effect(spec, effect, &b, &[c]);
+            add_effect(spec, kind(effect), &b, &[c]);
             format!("sensor_lowpass {} {:.1} rad/s", names(&b), c)
         }
         "operating_point_dependence" => {
@@ -143,7 +152,7 @@ pub fn hide(
                 s(rng) * log_uniform(rng, 1.0, 3.0),
                 s(rng) * log_uniform(rng, 1.0, 3.0),
             ];
-            add_effect(spec, effect, &[Binding::Global], &v);
+            add_effect(spec, kind(effect), &[Binding::Global], &v);
             format!(
                 "operating_point_dependence da_dx {:.2} da_dy {:.2} db_dx {:.2} db_dy {:.2}",
                 v[0], v[1], v[2], v[3]
@@ -153,15 +162,17 @@ pub fn hide(
             let b = axes(rng);
             let s = if rng.gen::<bool>() { 1.0 } else { -1.0 };
             let r = s * log_uniform(rng, 1e-5, 6e-5);
-            add_effect(spec, effect, &b, &[0.0, r]);
+            add_effect(spec, kind(effect), &b, &[0.0, r]);
             format!("sensor_drift {} {:.3} mm/s", names(&b), r * 1e3)
         }
         "cross_coupling" => {
             // The coupling terms of the pendulum, scaled.
             let k = log_uniform(rng, 0.7, 2.0);
             for p in ["a12", "a21", "b12", "b21"] {
-                let v = paper().value("pendulum", Binding::Global, p).unwrap_or(0.0);
-                spec.set_value("pendulum", Binding::Global, p, v * k);
+                let v = paper()
+                    .value(EffectKind::Pendulum, Binding::Global, p)
+                    .unwrap_or(0.0);
+                spec.set_value(EffectKind::Pendulum, Binding::Global, p, v * k);
             }
             format!("cross_coupling x{k:.2} of the paper's coupling")
         }
@@ -176,20 +187,27 @@ pub fn draw_with(seed: u64, effects: &[&str]) -> Draw {
     truth.name = Some(format!("blind draw {seed}"));
     // Another robot of the same family.
     for p in ["a11", "a22", "b11", "b22"] {
-        let v = truth.value("pendulum", Binding::Global, p).unwrap_or(0.0);
-        truth.set_value("pendulum", Binding::Global, p, v * rng.gen_range(0.8..1.2));
+        let v = truth
+            .value(EffectKind::Pendulum, Binding::Global, p)
+            .unwrap_or(0.0);
+        truth.set_value(
+            EffectKind::Pendulum,
+            Binding::Global,
+            p,
+            v * rng.gen_range(0.8..1.2),
+        );
     }
     let diagonal_model = effects.contains(&"cross_coupling");
     if diagonal_model {
         for p in ["a12", "a21", "b12", "b21"] {
-            truth.set_value("pendulum", Binding::Global, p, 0.0);
+            truth.set_value(EffectKind::Pendulum, Binding::Global, p, 0.0);
         }
     }
     let wn = rng.gen_range(22.0..40.0);
     let zeta = rng.gen_range(0.75..1.1);
     for a in Axis::BOTH {
-        truth.set_value("tracking_lowpass", Binding::Axis(a), "omega_n", wn);
-        truth.set_value("tracking_lowpass", Binding::Axis(a), "zeta", zeta);
+        truth.set_value(EffectKind::TrackingLowpass, Binding::Axis(a), "omega_n", wn);
+        truth.set_value(EffectKind::TrackingLowpass, Binding::Axis(a), "zeta", zeta);
     }
     let noise = log_uniform(&mut rng, 0.0002, 0.0008);
     let design = design(seed, noise);
@@ -266,7 +284,7 @@ pub fn run(draw: Draw, threads: usize) -> anyhow::Result<Outcome> {
     if draw.diagonal_model {
         let mut m = paper();
         for p in ["a12", "a21", "b12", "b21"] {
-            m.set_value("pendulum", Binding::Global, p, 0.0);
+            m.set_value(EffectKind::Pendulum, Binding::Global, p, 0.0);
         }
         opts.start_model = Some(m);
     }

@@ -8,6 +8,7 @@ use zmp_identify::IdentifyOptions;
 use zmp_indep_sim::{
     draw_with, write_campaign, CouplingForm, Design, DrawOptions, Robot, Scenario,
 };
+use zmp_models::EffectKind;
 
 /// The loop on draw `seed` of `scenario` from the independent simulator.
 #[allow(dead_code)] // not every test that includes this module uses both entry points
@@ -60,8 +61,8 @@ fn loop_drawn(
 /// input axis or a mode on that output axis's ZMP path.
 #[allow(dead_code)]
 pub fn mode_frequency(m: &zmp_models::ModelSpec, b: zmp_models::Binding) -> Option<f64> {
-    m.value("flexible_trunk", b, "omega_n")
-        .or_else(|| m.value("structural_mode", b, "omega_n"))
+    m.value(EffectKind::FlexibleTrunk, b, "omega_n")
+        .or_else(|| m.value(EffectKind::StructuralMode, b, "omega_n"))
 }
 
 /// Asserts that each plane's mode of the loop's final model lies within `tol[k]` (relative)

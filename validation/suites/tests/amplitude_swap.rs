@@ -13,6 +13,7 @@
 //! alone, inside the servo, within 0.8x the floor, widths within 15 %); one loop on that draw
 //! is enough for the suite.
 
+use zmp_models::EffectKind;
 use zmp_suites::indep_loop;
 
 use indep_loop::loop_and_robot;
@@ -32,13 +33,21 @@ fn a_friction_named_play_beside_a_low_pass_is_named_friction() {
     let (r, robot) = loop_and_robot(1_180_029, "pair:coulomb_friction,sensor_lowpass");
     let mut found = r.found.clone();
     found.sort();
-    assert_eq!(found, ["coulomb_friction", "sensor_lowpass"]);
-    assert!(!r.final_model.has("backlash"));
+    assert_eq!(
+        found,
+        [EffectKind::CoulombFriction, EffectKind::SensorLowpass]
+    );
+    assert!(!r.final_model.has(EffectKind::Backlash));
     indep_loop::assert_final_within(&r, 2.0);
     // Tolerance set after its run (fitted 0.167 and 0.244 m/s², drawn 0.172 and 0.252).
-    assert_each_axis_within(&r, &robot, "coulomb_friction", "level", 0.15, |axis| {
-        axis.friction.as_ref().expect("a drawn friction").kinetic
-    });
+    assert_each_axis_within(
+        &r,
+        &robot,
+        EffectKind::CoulombFriction,
+        "level",
+        0.15,
+        |axis| axis.friction.as_ref().expect("a drawn friction").kinetic,
+    );
 }
 
 /// Spent held-out draws 1220001 and 1230010 (examined after their ranges), lone plays: the
@@ -51,9 +60,12 @@ fn a_friction_named_play_beside_a_low_pass_is_named_friction() {
 #[ignore = "long: a loop on one draw of the independent simulator (minutes); `cargo xtask ci --long` runs it"]
 fn a_play_named_friction_first_takes_its_place_before_the_search_goes_on() {
     let (r, robot) = loop_and_robot(1_220_001, "single:backlash");
-    assert_eq!(r.found, ["backlash"]);
-    assert!(!r.final_model.has("coulomb_friction"));
-    assert!(!r.final_model.has("structural_mode") && !r.final_model.has("flexible_trunk"));
+    assert_eq!(r.found, [EffectKind::Backlash]);
+    assert!(!r.final_model.has(EffectKind::CoulombFriction));
+    assert!(
+        !r.final_model.has(EffectKind::StructuralMode)
+            && !r.final_model.has(EffectKind::FlexibleTrunk)
+    );
     // The swap is the version right after the friction's.
     let changes: Vec<&str> = r.versions.iter().map(|(_, a)| a.change.as_str()).collect();
     assert_eq!(
@@ -66,7 +78,7 @@ fn a_play_named_friction_first_takes_its_place_before_the_search_goes_on() {
     indep_loop::assert_final_within(&r, 1.2);
     assert!(!r.time_limit_reached);
     // Tolerance set after its run (fitted 0.73 and 0.85 mm, drawn 0.80 on both).
-    assert_each_axis_within(&r, &robot, "backlash", "width", 0.15, |axis| {
+    assert_each_axis_within(&r, &robot, EffectKind::Backlash, "width", 0.15, |axis| {
         axis.transmission.as_ref().expect("a drawn play").play
     });
 }
@@ -76,7 +88,7 @@ fn a_play_named_friction_first_takes_its_place_before_the_search_goes_on() {
 fn assert_each_axis_within(
     r: &LoopResult,
     robot: &Robot,
-    kind: &str,
+    kind: EffectKind,
     param: &str,
     tol: f64,
     drawn: impl Fn(&AxisMechanics) -> f64,

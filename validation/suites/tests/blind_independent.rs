@@ -10,12 +10,11 @@
 //! (`docs/src/held-out-history.md`) when `ZMP_UPDATE_DOCS=1`, and otherwise checks that the
 //! page's table is the one it measured.
 
-use zmp_suites::docs;
 use zmp_suites::indep;
 
-use docs::doc_section;
 use indep::{line, markdown, run_case, scores, suite, Case, Outcome};
 use zmp_campaign::par::parallel_map;
+use zmp_files::sections::check_page as doc_section;
 
 /// Held-out seeds: never looked at while the diagnosis was developed. Ranges spent: from
 /// 900000 (its first run stopped on seed 900000, which was then examined: the delay's range,

@@ -2,8 +2,6 @@
 //! pairs, and none), a model identified from each, and the diagnosis must name what is hidden.
 //! Prints the confusion matrix (markdown) and writes it to the test's temporary folder.
 
-use zmp_suites::docs;
-
 use std::collections::BTreeMap;
 use zmp_campaign::par::parallel_map;
 use zmp_suites::blind::{run, suite, Outcome, EFFECTS};
@@ -127,7 +125,7 @@ fn blind_suite_names_the_hidden_effects() {
         after.iter().copied().fold(0.0, f64::max),
     );
     println!("{summary}");
-    docs::doc_section("docs/src/suites.md", "blind-insample", &summary);
+    zmp_files::sections::check_page("docs/src/suites.md", "blind-insample", &summary);
     assert!(
         named as f64 >= 0.9 * singles.len() as f64,
         "single effects named first: {named}/{}",

@@ -10,6 +10,7 @@ use zmp_diagnose::observe::Observation;
 use zmp_diagnose::run::observe_campaign;
 use zmp_diagnose::{diagnose, DiagnoseOptions};
 use zmp_models::logspace;
+use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding, ModelSpec};
 use zmp_report::diagnose::{write_compare_report, write_diagnosis_report};
 use zmp_suites::blind::paper;
@@ -28,7 +29,7 @@ fn design() -> ExperimentDesign {
 
 fn with_delay(delay: f64) -> ModelSpec {
     let mut m = paper();
-    add_effect(&mut m, "time_delay", &AXES, &[delay]);
+    add_effect(&mut m, EffectKind::TimeDelay, &AXES, &[delay]);
     m
 }
 
@@ -97,7 +98,7 @@ fn compare_locates_a_hidden_delay_and_writes_its_reports() {
     .is_err());
 
     let d = diagnose(&camp, &paper(), &opts(), &|_| {}).unwrap();
-    assert_eq!(d.verdict, "time_delay", "{}", d.to_text());
+    assert_eq!(d.verdict, EffectKind::TimeDelay, "{}", d.to_text());
     let f = &d.findings[0];
     assert!(f.evidence.contains("pure delay"), "{}", f.evidence);
     let delay = f.parameters.values().next().copied().unwrap();
@@ -132,7 +133,7 @@ fn refitting_a_hand_edited_structure_recovers_the_delay() {
         .unwrap()
         .expect("a structure to refit");
     for b in AXES {
-        let d = r.spec.value("time_delay", b, "delay").unwrap();
+        let d = r.spec.value(EffectKind::TimeDelay, b, "delay").unwrap();
         assert!((d - 0.045).abs() < 1e-3, "{b:?}: {d}");
     }
     assert!(r.error_after < r.error_before);

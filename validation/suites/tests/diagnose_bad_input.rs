@@ -5,7 +5,8 @@
 use zmp_diagnose::augment::augment;
 use zmp_diagnose::{diagnose, DiagnoseOptions};
 use zmp_models::logspace;
-use zmp_models::{lookup, Axis, Binding, EffectInstance};
+use zmp_models::EffectKind;
+use zmp_models::{Axis, Binding, EffectInstance};
 use zmp_suites::blind::paper;
 use zmp_virtual_robot::{simulate_campaign, ExperimentDesign};
 
@@ -41,8 +42,8 @@ fn one_frequency_is_an_error() {
 fn model_channels_must_match_the_campaign() {
     let camp = simulate_campaign(&paper(), &design(logspace(0.5, 15.0, 5))).unwrap();
     let mut no_g11 = paper();
-    no_g11.set_value("pendulum", Binding::Global, "a11", 0.0);
-    no_g11.set_value("pendulum", Binding::Global, "b11", 0.0);
+    no_g11.set_value(EffectKind::Pendulum, Binding::Global, "a11", 0.0);
+    no_g11.set_value(EffectKind::Pendulum, Binding::Global, "b11", 0.0);
     let e = diagnose(&camp, &no_g11, &opts(), &|_| {})
         .unwrap_err()
         .to_string();
@@ -51,8 +52,10 @@ fn model_channels_must_match_the_campaign() {
     // Off by a factor of twenty: another robot, other units or a wrong file.
     let mut scaled = paper();
     for p in ["a11", "a12", "a21", "a22", "b11", "b12", "b21", "b22"] {
-        let v = scaled.value("pendulum", Binding::Global, p).unwrap();
-        scaled.set_value("pendulum", Binding::Global, p, 0.05 * v);
+        let v = scaled
+            .value(EffectKind::Pendulum, Binding::Global, p)
+            .unwrap();
+        scaled.set_value(EffectKind::Pendulum, Binding::Global, p, 0.05 * v);
     }
     let e = diagnose(&camp, &scaled, &opts(), &|_| {})
         .unwrap_err()
@@ -92,7 +95,7 @@ fn an_effect_outside_the_catalogue_is_unexplained() {
     // A random stable perturbation of G11 alone, up to 15 % at high frequency (the seed's
     // multiplicative uncertainty with a drawn Delta): no catalogued effect reproduces it.
     let mut truth = paper();
-    let u = lookup("uncertainty").unwrap();
+    let u = EffectKind::Uncertainty.info();
     truth.insert(EffectInstance {
         info: u,
         binding: Binding::Channel(zmp_models::Channel::new(Axis::X, Axis::X)),

@@ -5,6 +5,7 @@
 //! ended there explained with nothing found) must be found, and a clean saturating robot must
 //! stay explained with nothing added (the threshold's other side).
 
+use zmp_models::EffectKind;
 use zmp_suites::indep_loop;
 
 use zmp_diagnose::engine::EXPLAINED_CHI2_PER_COMPONENT;
@@ -42,7 +43,7 @@ fn a_friction_hidden_below_the_error_floor_is_found_by_its_chi_square() {
     ));
     assert_eq!(
         r.found,
-        vec!["coulomb_friction".to_string()],
+        vec![EffectKind::CoulombFriction.to_string()],
         "{:?}",
         r.found
     );

@@ -2,7 +2,7 @@
 //! (`validation/suites/held-out-ranges.csv`): the page's table is what the record renders to,
 //! and every row of the record parses.
 
-use zmp_suites::docs::doc_section;
+use zmp_files::sections::check_page as doc_section;
 use zmp_suites::history::{parse, record_path, render};
 
 #[test]

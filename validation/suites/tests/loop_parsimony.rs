@@ -21,6 +21,7 @@
 //! show the play because three pairs whose 8 mm sine the force limit clamps outweighed the
 //! others; such pairs are left out of the contrast now.
 
+use zmp_models::EffectKind;
 use zmp_suites::indep_loop;
 
 use indep_loop::loop_on;
@@ -29,13 +30,13 @@ use indep_loop::loop_on;
 #[ignore = "long: a loop on one draw of the independent simulator (minutes); `cargo xtask ci --long` runs it"]
 fn an_effect_the_later_ones_made_redundant_is_dropped() {
     let r = loop_on(38, "pair:coulomb_friction,sensor_lowpass");
-    for truth in ["coulomb_friction", "sensor_lowpass"] {
+    for truth in [EffectKind::CoulombFriction, EffectKind::SensorLowpass] {
         assert!(r.found.iter().any(|f| f == truth), "found {:?}", r.found);
     }
     // Once the friction and the low-pass are in, a play takes 53 % of the excess held-out
     // chi-square left, but that excess is at the noise (1.76 per component): nothing more is
     // added past "explained" (`select::dominates`).
-    for absent in ["structural_mode", "backlash"] {
+    for absent in [EffectKind::StructuralMode, EffectKind::Backlash] {
         assert!(!r.found.iter().any(|f| f == absent), "found {:?}", r.found);
     }
     assert!(r.explained, "final {:.2}x", r.final_error / r.noise_floor);
@@ -47,12 +48,12 @@ fn an_effect_the_later_ones_made_redundant_is_dropped() {
 fn play_is_not_named_when_small_and_large_sines_respond_alike() {
     let r = loop_on(24, "single:sensor_lowpass");
     assert!(
-        r.found.iter().any(|f| f == "sensor_lowpass"),
+        r.found.iter().any(|f| f == EffectKind::SensorLowpass),
         "found {:?}",
         r.found
     );
     assert!(
-        !r.found.iter().any(|f| f == "backlash"),
+        !r.found.iter().any(|f| f == EffectKind::Backlash),
         "found {:?}",
         r.found
     );
@@ -60,7 +61,7 @@ fn play_is_not_named_when_small_and_large_sines_respond_alike() {
     assert!(
         r.diagnoses
             .iter()
-            .any(|d| d.tried.iter().any(|(e, _)| e == "backlash")),
+            .any(|d| d.tried.iter().any(|(e, _)| e == EffectKind::Backlash)),
         "backlash never tried"
     );
     assert!(r.explained, "final {:.2}x", r.final_error / r.noise_floor);
@@ -72,7 +73,10 @@ fn play_is_named_when_only_the_clamped_pairs_hid_its_amplitude_dependence() {
     let r = loop_on(1_160_031, "pair:backlash,operating_point_dependence");
     let mut found = r.found.clone();
     found.sort();
-    assert_eq!(found, ["backlash", "operating_point_dependence"]);
+    assert_eq!(
+        found,
+        [EffectKind::Backlash, EffectKind::OperatingPointDependence]
+    );
     // Before, the loop ended `unexplained` at 0.52x the floor.
     assert!(r.explained, "final {:.2}x", r.final_error / r.noise_floor);
     assert!(r.final_error <= 0.4 * r.noise_floor);
@@ -109,7 +113,11 @@ fn a_delay_is_not_swapped_for_a_mode_that_fits_a_little_better() {
     found.sort();
     assert_eq!(
         found,
-        ["backlash", "sensor_drift", "time_delay"],
+        [
+            EffectKind::Backlash,
+            EffectKind::SensorDrift,
+            EffectKind::TimeDelay
+        ],
         "found {:?}",
         r.found
     );
@@ -128,12 +136,17 @@ fn past_explained_an_effect_that_removes_most_of_what_is_left_is_added() {
     let r = loop_on(1_060_035, "pair:time_delay,backlash");
     let mut found = r.found.clone();
     found.sort();
-    assert_eq!(found, ["backlash", "time_delay"], "found {:?}", r.found);
+    assert_eq!(
+        found,
+        [EffectKind::Backlash, EffectKind::TimeDelay],
+        "found {:?}",
+        r.found
+    );
     let delay = r
         .diagnoses
         .iter()
         .flat_map(|d| &d.findings)
-        .find(|f| f.effect == "time_delay" && f.significant)
+        .find(|f| f.effect == EffectKind::TimeDelay && f.significant)
         .expect("the delay's finding");
     assert!(
         delay

@@ -18,6 +18,7 @@
 //! 1120002, where Brent's method alone had settled in the same kind of shallow valley) the
 //! identification finds the limit itself and the draw tests that.
 
+use zmp_models::EffectKind;
 use zmp_suites::indep_loop;
 
 use indep_loop::{loop_on, loop_with};
@@ -68,7 +69,7 @@ fn the_loop_adopts_the_refitted_structure_when_it_explains_the_data() {
     let wn = r
         .final_model
         .value(
-            "tracking_lowpass",
+            EffectKind::TrackingLowpass,
             zmp_models::Binding::Axis(zmp_models::Axis::X),
             "omega_n",
         )
@@ -97,7 +98,7 @@ fn a_friction_robot_once_badly_identified_is_identified_and_its_friction_named()
     // The hidden friction is named, and nothing else.
     assert_eq!(
         r.found,
-        vec!["coulomb_friction".to_string()],
+        vec![EffectKind::CoulombFriction.to_string()],
         "{:?}",
         r.found
     );

@@ -14,6 +14,7 @@
 //! Draws: 1140013 (a held-out range already reported, examined after its one run) and 7302
 //! (fresh development draws 7300-7309, outside every range the blind suite reports).
 
+use zmp_models::EffectKind;
 use zmp_suites::indep_loop;
 
 use indep_loop::{assert_modes_within, loop_and_robot};
@@ -23,7 +24,7 @@ use indep_loop::{assert_modes_within, loop_and_robot};
 fn check(seed: u64, tol: f64) {
     let (r, robot) = loop_and_robot(seed, "single:structural_mode");
     assert!(
-        !r.found.is_empty() && r.found.iter().all(|e| e == "structural_mode"),
+        !r.found.is_empty() && r.found.iter().all(|e| e == EffectKind::StructuralMode),
         "draw {seed}: found {:?}",
         r.found
     );

@@ -28,9 +28,9 @@
 
 use std::f64::consts::PI;
 use zmp_campaign::read_campaign;
+use zmp_files::sections::check_page as doc_section;
 use zmp_identify::{identify, IdentifyOptions, NoiseSource};
 use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Scenario};
-use zmp_suites::docs::doc_section;
 
 /// Development seeds whose clean robots have slow coloured noise (correlation 0.6-0.8 s),
 /// and one with faster noise.

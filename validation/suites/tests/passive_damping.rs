@@ -10,11 +10,11 @@
 //! rate-limited servo, outside the catalogue: README, "Effects"); a model that has one gets it
 //! refitted with everything else. Here the user's start model has one.
 
-use zmp_suites::docs;
+use zmp_models::EffectKind;
 use zmp_suites::indep_loop;
 
-use docs::doc_section;
 use indep_loop::loop_from;
+use zmp_files::sections::check_page as doc_section;
 use zmp_indep_sim::{draw_with, CouplingForm, Design, DrawOptions};
 use zmp_models::{Axis, Binding, ModelSpec};
 
@@ -106,21 +106,22 @@ fn a_passive_damping_in_the_model_is_refitted_to_the_load_drag_and_closes_the_ga
         let fitted = [Axis::X, Axis::Y].map(|a| {
             with_play
                 .value(
-                    "acceleration_saturation",
+                    EffectKind::AccelerationSaturation,
                     Binding::Axis(a),
                     "passive_damping",
                 )
                 .expect("the model keeps the saturation")
         });
-        let law = if damped
-            .final_model
-            .value("backlash", Binding::Axis(Axis::X), "in_servo")
-            == Some(1.0)
-        {
-            "; the play then inside the servo"
-        } else {
-            ""
-        };
+        let law =
+            if damped
+                .final_model
+                .value(EffectKind::Backlash, Binding::Axis(Axis::X), "in_servo")
+                == Some(1.0)
+            {
+                "; the play then inside the servo"
+            } else {
+                ""
+            };
         let line = format!(
             "- {range} seed {seed} ({SCENARIO}): from the seed's structure the loop adds {} \
              and ends at {plain_ratio:.2}x the noise floor ({}); from the start model it adds \

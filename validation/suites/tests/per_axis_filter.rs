@@ -4,6 +4,7 @@
 //! the fit put a 258 rad/s filter on x alone (1.4x the noise floor) and the loop named a
 //! structural mode and a delay instead.
 
+use zmp_models::EffectKind;
 use zmp_suites::indep_loop;
 
 use zmp_models::{Axis, Binding};
@@ -12,7 +13,12 @@ use zmp_models::{Axis, Binding};
 #[ignore = "long: a loop on one draw of the independent simulator (minutes); `cargo xtask ci --long` runs it"]
 fn two_sensors_with_different_cutoffs_are_named_a_sensor_lowpass() {
     let r = indep_loop::loop_on(1_010_005, "single:sensor_lowpass");
-    assert_eq!(r.found, vec!["sensor_lowpass".to_string()], "{:?}", r.found);
+    assert_eq!(
+        r.found,
+        vec![EffectKind::SensorLowpass.to_string()],
+        "{:?}",
+        r.found
+    );
     assert!(r.explained, "final {:.2}x", r.final_error / r.noise_floor);
     assert!(
         r.final_error < 1.2 * r.noise_floor,
@@ -24,7 +30,7 @@ fn two_sensors_with_different_cutoffs_are_named_a_sensor_lowpass() {
     for (axis, truth) in [(Axis::X, 39.28), (Axis::Y, 46.51)] {
         let c = r
             .final_model
-            .value("sensor_lowpass", Binding::Axis(axis), "cutoff")
+            .value(EffectKind::SensorLowpass, Binding::Axis(axis), "cutoff")
             .unwrap_or_else(|| panic!("no sensor_lowpass on {axis:?}"));
         assert!(
             (c / truth - 1.0).abs() < 0.15,

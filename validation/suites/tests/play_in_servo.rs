@@ -10,10 +10,9 @@
 //! records of some draw, or the test would not tell the laws apart. The saturated records are
 //! checked on their own, so the test cannot pass on the many linear records alone.
 
-use zmp_suites::docs;
+use zmp_models::EffectKind;
 use zmp_suites::indep_loop;
 
-use docs::doc_section;
 use num_complex::Complex64;
 use std::collections::HashMap;
 use std::sync::OnceLock;
@@ -23,6 +22,7 @@ use zmp_diagnose::measure::{
 };
 use zmp_diagnose::observe::Observation;
 use zmp_diagnose::run::observations_of;
+use zmp_files::sections::check_page as doc_section;
 use zmp_identify::{analyse_records, IdentifyOptions, NoiseSource, RecordFit};
 use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Robot};
 use zmp_models::ModelSpec;
@@ -407,12 +407,14 @@ fn the_loop_from_a_start_model_with_the_play_inside_the_servo_explains_the_draw(
     let widths = [zmp_models::Axis::X, zmp_models::Axis::Y].map(|a| {
         let b = zmp_models::Binding::Axis(a);
         assert_eq!(
-            r.final_model.value("backlash", b, "in_servo"),
+            r.final_model.value(EffectKind::Backlash, b, "in_servo"),
             Some(1.0),
             "{}",
             r.final_model.to_toml()
         );
-        r.final_model.value("backlash", b, "width").unwrap()
+        r.final_model
+            .value(EffectKind::Backlash, b, "width")
+            .unwrap()
     });
     let drawn = [0, 1].map(|k| truth.axes[k].transmission.as_ref().unwrap().play);
     let line = format!(
@@ -464,7 +466,12 @@ fn the_loop_moves_the_play_it_found_inside_the_servo() {
     let seed = 20;
     let truth = draw(seed);
     let r = indep_loop::loop_on(seed, SCENARIO);
-    assert_eq!(r.found, vec!["backlash".to_string()], "found {:?}", r.found);
+    assert_eq!(
+        r.found,
+        vec![EffectKind::Backlash.to_string()],
+        "found {:?}",
+        r.found
+    );
     // Since friction is simulated with the force limit it shares the servo with, the search
     // names a friction here first, and the loop's look at the other amplitude law puts the
     // play in its place, fitted inside the servo (change `backlash-for-coulomb_friction`), at
@@ -497,8 +504,14 @@ fn the_loop_moves_the_play_it_found_inside_the_servo() {
         .enumerate()
     {
         let b = zmp_models::Binding::Axis(a);
-        assert_eq!(r.final_model.value("backlash", b, "in_servo"), Some(1.0));
-        let width = r.final_model.value("backlash", b, "width").unwrap();
+        assert_eq!(
+            r.final_model.value(EffectKind::Backlash, b, "in_servo"),
+            Some(1.0)
+        );
+        let width = r
+            .final_model
+            .value(EffectKind::Backlash, b, "width")
+            .unwrap();
         let drawn = truth.axes[k].transmission.as_ref().unwrap().play;
         assert!(
             (width / drawn - 1.0).abs() <= 0.15,

@@ -7,6 +7,7 @@
 //! no play on the CoM command does: the search named nothing and the loop ended at 4.4x the
 //! noise floor. The look fits the backlash candidate's starts with the play inside the servo.
 
+use zmp_models::EffectKind;
 use zmp_suites::indep_loop;
 
 use indep_loop::loop_and_robot;
@@ -23,8 +24,14 @@ fn a_play_only_the_law_inside_the_servo_fits_is_named_and_the_data_explained() {
     let bindings = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
     for (k, axis) in robot.axes.iter().enumerate() {
         let b = bindings[k];
-        assert_eq!(r.final_model.value("backlash", b, "in_servo"), Some(1.0));
-        let width = r.final_model.value("backlash", b, "width").expect("a play");
+        assert_eq!(
+            r.final_model.value(EffectKind::Backlash, b, "in_servo"),
+            Some(1.0)
+        );
+        let width = r
+            .final_model
+            .value(EffectKind::Backlash, b, "width")
+            .expect("a play");
         let drawn = axis.transmission.as_ref().expect("a drawn play").play;
         // Tolerance set after its run (fitted 0.448 and 0.399 mm).
         assert!(

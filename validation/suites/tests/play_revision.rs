@@ -14,6 +14,7 @@
 //! held-out from 900000); 1160027 is a spent held-out draw, examined after its range; 11 is a
 //! development seed whose mode inside the servo kept its play on the command.
 
+use zmp_models::EffectKind;
 use zmp_suites::indep_loop;
 
 use indep_loop::loop_and_robot;
@@ -25,7 +26,11 @@ fn check(seed: u64, tol: f64) {
     let (r, robot) = loop_and_robot(seed, "pair:time_delay,backlash");
     let mut found = r.found.clone();
     found.sort();
-    assert_eq!(found, ["backlash", "time_delay"], "draw {seed}");
+    assert_eq!(
+        found,
+        [EffectKind::Backlash, EffectKind::TimeDelay],
+        "draw {seed}"
+    );
     assert!(
         r.explained && r.final_error <= 0.5 * r.noise_floor,
         "draw {seed}: final {:.2}x the floor",
@@ -35,13 +40,13 @@ fn check(seed: u64, tol: f64) {
     for (k, axis) in robot.axes.iter().enumerate() {
         let b = bindings[k];
         assert_eq!(
-            r.final_model.value("backlash", b, "in_servo"),
+            r.final_model.value(EffectKind::Backlash, b, "in_servo"),
             Some(1.0),
             "draw {seed}: the play on axis {k} is not inside its servo"
         );
         let delay = r
             .final_model
-            .value("time_delay", b, "delay")
+            .value(EffectKind::TimeDelay, b, "delay")
             .expect("a delay on every axis");
         let drawn = axis.command_delay;
         assert!(
@@ -84,17 +89,25 @@ fn a_delay_the_servo_low_pass_absorbed_is_named_once_the_play_is_inside_the_serv
 #[ignore = "long: a loop on one draw of the independent simulator (minutes); `cargo xtask ci --long` runs it"]
 fn a_mode_that_kept_the_play_out_of_its_servo_gives_way_to_the_play_inside() {
     let (r, robot) = loop_and_robot(11, "single:backlash");
-    assert_eq!(r.found, ["backlash"]);
+    assert_eq!(r.found, [EffectKind::Backlash]);
     assert!(
         r.explained && r.final_error <= 0.5 * r.noise_floor,
         "final {:.2}x the floor",
         r.final_error / r.noise_floor
     );
-    assert!(!r.final_model.has("time_delay") && !r.final_model.has("flexible_trunk"));
+    assert!(
+        !r.final_model.has(EffectKind::TimeDelay) && !r.final_model.has(EffectKind::FlexibleTrunk)
+    );
     for (k, axis) in robot.axes.iter().enumerate() {
         let b = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)][k];
-        assert_eq!(r.final_model.value("backlash", b, "in_servo"), Some(1.0));
-        let width = r.final_model.value("backlash", b, "width").unwrap();
+        assert_eq!(
+            r.final_model.value(EffectKind::Backlash, b, "in_servo"),
+            Some(1.0)
+        );
+        let width = r
+            .final_model
+            .value(EffectKind::Backlash, b, "width")
+            .unwrap();
         let drawn = axis.transmission.as_ref().expect("a drawn play").play;
         assert!(
             (width / drawn - 1.0).abs() < 0.1,

@@ -10,6 +10,7 @@ use zmp_diagnose::measure::{predict, predict_in_time, predict_until};
 use zmp_diagnose::observe::Observation;
 use zmp_diagnose::run::observe_campaign;
 use zmp_models::logspace;
+use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding};
 use zmp_suites::blind::paper;
 use zmp_virtual_robot::{simulate_campaign, ExperimentDesign};
@@ -18,7 +19,7 @@ use zmp_virtual_robot::{simulate_campaign, ExperimentDesign};
 fn predictions_do_not_depend_on_the_thread_budget() {
     let axes = [Binding::Axis(Axis::X), Binding::Axis(Axis::Y)];
     let mut robot = paper();
-    add_effect(&mut robot, "backlash", &axes, &[0.001]);
+    add_effect(&mut robot, EffectKind::Backlash, &axes, &[0.001]);
     let design = ExperimentDesign {
         operating_points: vec![[0.0, 0.0]],
         amplitudes: vec![0.003, 0.008],
@@ -33,8 +34,13 @@ fn predictions_do_not_depend_on_the_thread_budget() {
     // A play and an acceleration limit that the fastest, largest records reach: describing
     // functions simulated by the servo.
     let mut model = paper();
-    add_effect(&mut model, "backlash", &axes, &[0.0012]);
-    add_effect(&mut model, "acceleration_saturation", &axes, &[0.6]);
+    add_effect(&mut model, EffectKind::Backlash, &axes, &[0.0012]);
+    add_effect(
+        &mut model,
+        EffectKind::AccelerationSaturation,
+        &axes,
+        &[0.6],
+    );
     let bits = |threads: usize| {
         zmp_models::effects::servo::clear_describing_function_cache();
         let p = with_threads(threads, || predict(&model, &refs)).unwrap();
@@ -87,7 +93,7 @@ fn a_prediction_in_time_stops_at_the_limit_record_by_record() {
     let refs: Vec<&Observation> = obs.iter().collect();
     assert!(refs.len() >= 12, "{} observations", refs.len());
     let mut model = paper();
-    add_effect(&mut model, "coulomb_friction", &axes, &[0.05]);
+    add_effect(&mut model, EffectKind::CoulombFriction, &axes, &[0.05]);
     let bits = |p: &[zmp_diagnose::measure::Prediction]| -> Vec<u64> {
         p.iter()
             .flat_map(|p| (0..2).flat_map(move |i| [p.g[i].re, p.g[i].im].map(f64::to_bits)))

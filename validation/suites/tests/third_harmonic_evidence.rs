@@ -5,6 +5,7 @@
 //! floor on the first harmonic and trend alone) while identify flagged odd harmonics no model
 //! predicted.
 
+use zmp_models::EffectKind;
 use zmp_suites::indep_loop;
 
 use zmp_diagnose::iterate::LoopResult;
@@ -52,7 +53,9 @@ fn friction_is_found_by_the_distortion_it_predicts() {
         r.found
     );
     assert!(
-        r.found[1..].iter().all(|f| f == "acceleration_saturation"),
+        r.found[1..]
+            .iter()
+            .all(|f| f == EffectKind::AccelerationSaturation),
         "{:?}",
         r.found
     );
@@ -79,7 +82,7 @@ fn friction_is_found_by_the_distortion_it_predicts() {
 #[ignore = "long: a loop on one draw of the independent simulator (minutes); `cargo xtask ci --long` runs it"]
 fn a_friction_the_identification_absorbed_is_fitted_from_its_starts() {
     let (r, robot) = indep_loop::loop_and_robot(1_190_020, "single:coulomb_friction");
-    assert_eq!(r.found, ["coulomb_friction"]);
+    assert_eq!(r.found, [EffectKind::CoulombFriction]);
     // Tolerance set after its run (0.78x).
     indep_loop::assert_final_within(&r, 1.0);
     // Fitted 0.1756 and 0.1382 (drawn 0.1753 and 0.1381).
@@ -91,7 +94,10 @@ fn a_friction_the_identification_absorbed_is_fitted_from_its_starts() {
 fn assert_friction_and_limit_drawn(r: &LoopResult, robot: &Robot, tol: f64) {
     for (k, axis) in robot.axes.iter().enumerate() {
         let b = Binding::Axis([Axis::X, Axis::Y][k]);
-        let level = r.final_model.value("coulomb_friction", b, "level").unwrap();
+        let level = r
+            .final_model
+            .value(EffectKind::CoulombFriction, b, "level")
+            .unwrap();
         let drawn = axis.friction.as_ref().expect("a drawn friction").kinetic;
         assert!(
             (level / drawn - 1.0).abs() < tol,
@@ -99,7 +105,7 @@ fn assert_friction_and_limit_drawn(r: &LoopResult, robot: &Robot, tol: f64) {
         );
         let limit = r
             .final_model
-            .value("acceleration_saturation", b, "limit")
+            .value(EffectKind::AccelerationSaturation, b, "limit")
             .unwrap();
         let drawn = axis.servo.accel_limit;
         assert!(

@@ -12,14 +12,14 @@
 //! saturated records are checked on their own, so the test cannot pass on the many linear
 //! records alone.
 
-use zmp_suites::docs;
+use zmp_models::EffectKind;
 use zmp_suites::indep_loop;
 
-use docs::doc_section;
 use num_complex::Complex64;
 use zmp_campaign::read_campaign;
 use zmp_diagnose::measure::{aggregate, predict, score};
 use zmp_diagnose::run::observe_campaign;
+use zmp_files::sections::check_page as doc_section;
 use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Robot};
 use zmp_models::effects::servo_link::{joint_response, TrunkLink};
 use zmp_models::ModelSpec;
@@ -242,7 +242,7 @@ fn the_loop_moves_a_mode_the_filter_cannot_explain_inside_the_servo() {
         }
         let trunks = trunks(&r.final_model);
         assert!(
-            !trunks.is_empty() && !r.final_model.has("structural_mode"),
+            !trunks.is_empty() && !r.final_model.has(EffectKind::StructuralMode),
             "seed {seed}: {}",
             r.final_model.to_toml()
         );
@@ -314,7 +314,7 @@ fn a_mode_the_filter_fit_left_unexplained_ends_explained_with_both_links() {
 fn trunks(m: &ModelSpec) -> Vec<&zmp_models::EffectInstance> {
     m.effects
         .iter()
-        .filter(|e| e.info.kind == "flexible_trunk")
+        .filter(|e| e.info.kind == EffectKind::FlexibleTrunk)
         .collect()
 }
 
@@ -339,7 +339,7 @@ fn range(seed: u64) -> &'static str {
 #[ignore = "long: a loop on one draw of the independent simulator (minutes); `cargo xtask ci --long` runs it"]
 fn a_mode_the_force_limit_hides_from_the_filter_law_is_named_inside_the_servo() {
     let r = indep_loop::loop_on(1_080_004, SCENARIO);
-    assert_eq!(r.found, ["structural_mode"], "found {:?}", r.found);
+    assert_eq!(r.found, [EffectKind::StructuralMode], "found {:?}", r.found);
     assert!(
         r.explained && r.final_error < 2.0 * r.noise_floor,
         "{} at {:.2}x the floor",

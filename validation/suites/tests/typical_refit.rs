@@ -24,6 +24,7 @@
 //! under the model's law and inside the servo: spent held-out draw 1180004's lightly damped link
 //! between two sweep frequencies. The tolerances below were set after seeing these draws' runs.
 
+use zmp_models::EffectKind;
 use zmp_suites::indep_loop;
 
 use indep_loop::{assert_modes_within, loop_and_robot};
@@ -35,7 +36,7 @@ use zmp_models::{Axis, Binding};
 /// drawn frequency; returns the loop's result and the drawn robot.
 fn check(seed: u64, max_ratio: f64) -> (zmp_diagnose::iterate::LoopResult, zmp_indep_sim::Robot) {
     let (r, robot) = loop_and_robot(seed, "pair:structural_mode,time_delay");
-    for e in ["structural_mode", "time_delay"] {
+    for e in [EffectKind::StructuralMode, EffectKind::TimeDelay] {
         assert!(
             r.found.iter().any(|f| f == e),
             "draw {seed}: found {:?}",
@@ -72,7 +73,7 @@ fn a_mode_and_a_delay_fitted_one_after_the_other_are_refitted_from_typical_value
 fn a_delay_a_link_had_absorbed_is_named_once_the_link_is_no_mode() {
     let (r, robot) = check(7409, 1.05);
     assert!(
-        !r.final_model.has("sensor_lowpass"),
+        !r.final_model.has(EffectKind::SensorLowpass),
         "a sensor low-pass is left"
     );
     assert_delays_within(&r, &robot, 0.2);
@@ -91,7 +92,11 @@ fn a_mode_above_the_sweep_a_long_delay_stood_in_for_is_refitted_at_its_frequency
 #[ignore = "long: a loop on one draw of the independent simulator (minutes); `cargo xtask ci --long` runs it"]
 fn the_lag_a_slow_servo_took_from_the_delay_goes_back_to_it() {
     let (r, robot) = loop_and_robot(1_160_041, "triple:structural_mode,time_delay,sensor_drift");
-    for e in ["structural_mode", "time_delay", "sensor_drift"] {
+    for e in [
+        EffectKind::StructuralMode,
+        EffectKind::TimeDelay,
+        EffectKind::SensorDrift,
+    ] {
         assert!(r.found.iter().any(|f| f == e), "found {:?}", r.found);
     }
     assert!(
@@ -119,7 +124,7 @@ fn the_lag_a_slow_servo_took_from_the_delay_goes_back_to_it() {
 #[ignore = "long: a loop on one draw of the independent simulator (minutes); `cargo xtask ci --long` runs it"]
 fn a_lightly_damped_link_between_two_sweep_frequencies_is_refitted_at_its_own() {
     let (r, robot) = loop_and_robot(1_180_004, "single:structural_mode");
-    assert_eq!(r.found, ["structural_mode"]);
+    assert_eq!(r.found, [EffectKind::StructuralMode]);
     assert!(
         r.versions.iter().any(|(_, v)| v.change == TYPICAL_REFIT),
         "no {TYPICAL_REFIT} version"
@@ -147,7 +152,11 @@ fn a_lightly_damped_link_between_two_sweep_frequencies_is_refitted_at_its_own() 
 fn a_delay_a_slow_servo_took_beside_links_it_bent_is_fitted_with_the_structure_typical() {
     let seed = 1_200_041;
     let (r, robot) = loop_and_robot(seed, "triple:structural_mode,time_delay,sensor_drift");
-    for e in ["structural_mode", "time_delay", "sensor_drift"] {
+    for e in [
+        EffectKind::StructuralMode,
+        EffectKind::TimeDelay,
+        EffectKind::SensorDrift,
+    ] {
         assert!(r.found.iter().any(|f| f == e), "found {:?}", r.found);
     }
     assert!(
@@ -171,7 +180,11 @@ fn assert_servo_within(
 ) {
     let servo = r
         .final_model
-        .value("tracking_lowpass", Binding::Axis(Axis::X), "omega_n")
+        .value(
+            EffectKind::TrackingLowpass,
+            Binding::Axis(Axis::X),
+            "omega_n",
+        )
         .unwrap();
     let drawn = robot.axes[0].servo.omega_n;
     assert!(
@@ -189,7 +202,10 @@ fn assert_delays_within(
 ) {
     for (k, axis) in robot.axes.iter().enumerate() {
         let b = Binding::Axis([Axis::X, Axis::Y][k]);
-        let got = r.final_model.value("time_delay", b, "delay").unwrap_or(0.0);
+        let got = r
+            .final_model
+            .value(EffectKind::TimeDelay, b, "delay")
+            .unwrap_or(0.0);
         let want = axis.command_delay;
         assert!(
             (got - want).abs() <= tol * want,
@@ -216,7 +232,7 @@ fn assert_delays_within(
 fn a_delay_a_servo_no_slower_than_the_seeds_took_is_found_beside_links() {
     let seed = 1_210_038;
     let (r, robot) = loop_and_robot(seed, "pair:structural_mode,time_delay");
-    for e in ["structural_mode", "time_delay"] {
+    for e in [EffectKind::StructuralMode, EffectKind::TimeDelay] {
         assert!(r.found.iter().any(|f| f == e), "found {:?}", r.found);
     }
     assert!(
@@ -249,7 +265,7 @@ fn a_second_planes_link_the_search_missed_is_started_by_the_typical_refit() {
         r.versions.iter().any(|(_, v)| v.change == TYPICAL_REFIT),
         "no {TYPICAL_REFIT} version"
     );
-    assert!(!r.final_model.has("time_delay"), "a delay is left");
+    assert!(!r.final_model.has(EffectKind::TimeDelay), "a delay is left");
     assert!(
         r.final_error <= 1.1 * r.noise_floor,
         "final {:.2}x the floor",
@@ -272,9 +288,9 @@ fn a_second_planes_link_the_search_missed_is_started_by_the_typical_refit() {
 fn a_sensor_lowpass_that_held_a_delays_lag_beside_links_is_dropped() {
     let seed = 1_210_030;
     let (r, robot) = loop_and_robot(seed, "pair:structural_mode,time_delay");
-    assert_eq!(r.found, ["structural_mode", "time_delay"]);
+    assert_eq!(r.found, [EffectKind::StructuralMode, EffectKind::TimeDelay]);
     assert!(
-        !r.final_model.has("sensor_lowpass"),
+        !r.final_model.has(EffectKind::SensorLowpass),
         "a sensor low-pass is left"
     );
     assert!(
@@ -307,11 +323,11 @@ fn a_sensor_lowpass_that_held_a_delays_lag_beside_links_is_dropped() {
 fn a_sensor_lowpass_that_stood_for_delays_is_replaced_by_them() {
     let seed = 1_220_038;
     let (r, robot) = loop_and_robot(seed, "pair:structural_mode,time_delay");
-    for e in ["structural_mode", "time_delay"] {
+    for e in [EffectKind::StructuralMode, EffectKind::TimeDelay] {
         assert!(r.found.iter().any(|f| f == e), "found {:?}", r.found);
     }
     assert!(
-        !r.final_model.has("sensor_lowpass"),
+        !r.final_model.has(EffectKind::SensorLowpass),
         "a sensor low-pass is left"
     );
     assert!(

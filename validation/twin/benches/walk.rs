@@ -1,7 +1,8 @@
 //! Real-time factor of the walking twin: one execution of the seed's gait (15.36 s simulated,
-//! planned beforehand) on the SABIAN twin, one thread. Peer in the same run: MuJoCo stepping the
-//! same model for the same time with fixed servo targets (no interpolation, sensors or
-//! recording): the floor of what a run can cost.
+//! planned beforehand) on the SABIAN twin, one thread, open loop and with the Torso Position
+//! Control (its update and the legs' correction every 1 ms step). Peer in the same run: MuJoCo
+//! stepping the same model for the same time with fixed servo targets (no interpolation, sensors
+//! or recording): the floor of what a run can cost.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::time::Duration;
@@ -28,13 +29,15 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10)
         .warm_up_time(Duration::from_secs(2))
         .measurement_time(Duration::from_secs(25));
-    g.bench_function("seed_gait_15.36s", |b| {
-        b.iter(|| {
-            let r = execute(&p, &real, &gait, &pert).unwrap();
-            assert!(!r.fell);
-            r
-        })
-    });
+    for (name, tpc) in [("seed_gait_15.36s", false), ("seed_gait_15.36s_tpc", true)] {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let r = execute(&p, &real, &gait, &pert, tpc).unwrap();
+                assert!(!r.fell);
+                r
+            })
+        });
+    }
     g.bench_function("peer_mujoco_steps_only_15.36s", |b| {
         b.iter(|| {
             let mut robot = Sabian::load(&real, "real").unwrap();

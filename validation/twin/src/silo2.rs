@@ -8,6 +8,8 @@
 //! - [`crosscheck`]: the corner-sensor ZMP against MuJoCo's contact centre of pressure and the
 //!   momentum / cart-table ZMP, and the contact-softness error budget;
 //! - [`closed_loop`]: the seed's section 6.6 experiment with the cascade controller;
+//! - [`stance`]: the stance resonance swept on the model file, against the structural mode the
+//!   diagnosis names;
 //! - [`validate`]: all of it, the identification and the diagnosis, into one report
 //!   ([`summary`]: what it found, [`report`]: the HTML page and the closed-loop figure).
 
@@ -17,6 +19,7 @@ pub mod crosscheck;
 pub mod props;
 pub mod readme;
 pub mod report;
+pub mod stance;
 pub mod summary;
 pub mod validate;
 

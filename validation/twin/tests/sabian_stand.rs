@@ -40,3 +40,43 @@ fn the_cad_twin_stands_and_its_sensors_carry_the_body() {
         "sensor ZMP {zmp:?} vs CoM {c}"
     );
 }
+
+#[test]
+fn the_stand_keyframe_is_the_home_posture_with_the_soles_on_the_floor() {
+    use zmp_twin::sabian::calibrate::{home_pelvis_x, PostureSpec, SOLE_CENTRE_X};
+    // The keyframe as MuJoCo loads it from the file.
+    let mut r = Sabian::load(&Variant::default(), "cad").unwrap();
+    let key = r
+        .model()
+        .name_to_id(mujoco_rs::prelude::MjtObjBase::mjOBJ_KEY, "stand")
+        .expect("sabian.xml has a keyframe 'stand'");
+    r.data.reset_keyframe(key).unwrap();
+    r.kinematics();
+    let key_q: Vec<f64> = r.data.qpos().to_vec();
+    // Soles level and on the floor: 7 decimals of a joint angle are 0.05 urad, under 0.1 um at
+    // the soles.
+    for s in 0..2 {
+        let site = r.idx.sole_bottom_site[s];
+        let z = r.data.site_xpos()[site][2];
+        let m = r.data.site_xmat()[site];
+        assert!(z.abs() < 1e-6, "sole {s} at z = {z} m");
+        assert!((m[8] - 1.0).abs() < 1e-10, "sole {s} not level: {m:?}");
+    }
+    // The CAD CoM over the soles' centres.
+    let c = r.com();
+    assert!(
+        (c.x - SOLE_CENTRE_X).abs() < 1e-6 && c.y.abs() < 1e-6,
+        "CoM {c}"
+    );
+    // The servos hold it: each target is its joint's angle.
+    for &(a, q) in &r.idx.servo {
+        assert_eq!(r.data.ctrl()[a], key_q[q], "actuator {a}");
+    }
+    // It is the calibration's upright posture solved by the twin's inverse kinematics.
+    let mut cad = Sabian::load(&Variant::default(), "cad").unwrap();
+    let hx = home_pelvis_x(&mut cad).unwrap();
+    PostureSpec::upright().pose(&mut cad, hx).unwrap();
+    for (k, (a, b)) in key_q.iter().zip(cad.data.qpos()).enumerate() {
+        assert!((a - b).abs() < 1e-7, "qpos[{k}]: keyframe {a}, IK {b}");
+    }
+}

@@ -191,7 +191,7 @@ mod tests {
     use crate::effect::{BuildContext, Effect};
     use crate::effects::servo::Servo;
     use crate::effects::servo_link::TrunkLink;
-    use crate::{lookup, Axis, Binding};
+    use crate::{Axis, Binding};
 
     const H: f64 = 0.005;
 
@@ -202,7 +202,7 @@ mod tests {
             servo: Some((30.0, 1.0)),
             link: None,
         };
-        vec![(lookup("coulomb_friction").unwrap().build)(
+        vec![(crate::EffectKind::CoulombFriction.info().build)(
             &ctx,
             &[level, v_s],
         )]

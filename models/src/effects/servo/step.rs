@@ -265,7 +265,12 @@ mod tests {
 
     /// Largest position difference over 5 s between the servo's own step (h = 1 ms) and RK4 on
     /// a 50x finer grid, with the same effect, for a reference sine of `amplitude` at `omega`.
-    fn worst_against_fine_rk4(kind: &str, value: f64, amplitude: f64, omega: f64) -> f64 {
+    fn worst_against_fine_rk4(
+        kind: crate::EffectKind,
+        value: f64,
+        amplitude: f64,
+        omega: f64,
+    ) -> f64 {
         let (h, fine) = (1e-3, 50);
         let mut fast = Servo::new(30.0, 1.0, h);
         let mut lf = [limit(kind, value, h)];
@@ -293,7 +298,8 @@ mod tests {
     /// constant-acceleration step.
     #[test]
     fn constant_acceleration_path_matches_fine_rk4_in_saturation() {
-        let worst = worst_against_fine_rk4("acceleration_saturation", 0.8, 0.008, 15.0);
+        let worst =
+            worst_against_fine_rk4(crate::EffectKind::AccelerationSaturation, 0.8, 0.008, 15.0);
         assert!(
             worst < 2e-6,
             "fast path departs from fine RK4 by {worst} m (amplitude 8 mm)"
@@ -303,7 +309,7 @@ mod tests {
     /// Under friction: the constant-force step.
     #[test]
     fn fast_path_matches_fine_rk4_under_friction() {
-        let worst = worst_against_fine_rk4("coulomb_friction", 0.05, 0.005, 3.0);
+        let worst = worst_against_fine_rk4(crate::EffectKind::CoulombFriction, 0.05, 0.005, 3.0);
         assert!(
             worst < 2e-7,
             "fast path departs from fine RK4 by {worst} m (amplitude 5 mm)"
@@ -317,7 +323,7 @@ mod tests {
     fn friction_does_not_depend_on_the_step() {
         let run = |h: f64| -> Vec<f64> {
             let mut servo = Servo::new(30.0, 1.0, h);
-            let mut l = [limit("coulomb_friction", 0.3, h)];
+            let mut l = [limit(crate::EffectKind::CoulombFriction, 0.3, h)];
             servo.reset(0.0);
             let per_ms = (1e-3 / h).round() as usize;
             let mut out = Vec::new();
@@ -340,7 +346,7 @@ mod tests {
             "1 ms and 0.1 ms trajectories differ by {worst} m"
         );
         let df = |h: f64| {
-            let mut l = [limit("coulomb_friction", 0.3, h)];
+            let mut l = [limit(crate::EffectKind::CoulombFriction, 0.3, h)];
             servo_first_harmonic(30.0, 1.0, h, &mut l, 3.0, 0.005)
                 / servo_first_harmonic(30.0, 1.0, h, &mut [], 3.0, 0.005)
         };

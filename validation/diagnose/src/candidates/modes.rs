@@ -3,6 +3,7 @@
 //! servo's loop.
 
 use super::{add_effect, axis_variants, with, DataRange, Free, Start, AXES};
+use zmp_models::EffectKind;
 use zmp_models::{Binding, ModelSpec};
 
 /// The `k`-th of `n` starting frequencies of a structural mode: log-spaced from a sixth of the
@@ -18,9 +19,9 @@ fn mode_start(r: &DataRange, k: usize, n: usize) -> f64 {
 /// output axis or a flexible link of that input axis).
 pub fn mode_free_axes(spec: &ModelSpec) -> [bool; 2] {
     [0, 1].map(|k| {
-        !["structural_mode", "flexible_trunk"]
+        ![EffectKind::StructuralMode, EffectKind::FlexibleTrunk]
             .iter()
-            .any(|kind| spec.get(kind, AXES[k]).is_some())
+            .any(|kind| spec.get(*kind, AXES[k]).is_some())
     })
 }
 
@@ -47,12 +48,17 @@ pub(super) fn structural_mode(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
                 // A flexible link may carry only part of the moving mass: the share starts
                 // high and is fitted.
                 let share = 0.8;
-                let s = with(spec, "structural_mode", &bindings, &[wm, zeta, share]);
+                let s = with(
+                    spec,
+                    EffectKind::StructuralMode,
+                    &bindings,
+                    &[wm, zeta, share],
+                );
                 out.push((
                     s,
                     vec![
                         Free::new(
-                            "structural_mode",
+                            EffectKind::StructuralMode,
                             bindings.clone(),
                             "omega_n",
                             wm,
@@ -63,7 +69,7 @@ pub(super) fn structural_mode(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
                         // the well-damped servo's place (two second-order low-passes in the
                         // command path are otherwise interchangeable).
                         Free::new(
-                            "structural_mode",
+                            EffectKind::StructuralMode,
                             bindings.clone(),
                             "zeta",
                             zeta,
@@ -71,7 +77,7 @@ pub(super) fn structural_mode(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
                             MODE_ZETA_MAX,
                         ),
                         Free::new(
-                            "structural_mode",
+                            EffectKind::StructuralMode,
                             bindings.clone(),
                             "share",
                             share,
@@ -107,11 +113,11 @@ fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     let law = if spec
         .effects
         .iter()
-        .any(|e| e.info.kind == "flexible_trunk" && e.value("in_servo") == Some(1.0))
+        .any(|e| e.info.kind == EffectKind::FlexibleTrunk && e.value("in_servo") == Some(1.0))
         && !spec
             .effects
             .iter()
-            .any(|e| e.info.kind == "backlash" && e.value("in_servo") == Some(1.0))
+            .any(|e| e.info.kind == EffectKind::Backlash && e.value("in_servo") == Some(1.0))
     {
         1.0
     } else {
@@ -123,7 +129,7 @@ fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
             let (zeta, share) = (LINK_ZETA, LINK_SHARE);
             let s = with(
                 spec,
-                "flexible_trunk",
+                EffectKind::FlexibleTrunk,
                 &bindings,
                 &[wm, zeta, share, DRIVE_START, law],
             );
@@ -144,7 +150,7 @@ fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
             let (zeta, share) = (LINK_ZETA, LINK_SHARE);
             let s = with(
                 spec,
-                "flexible_trunk",
+                EffectKind::FlexibleTrunk,
                 &AXES,
                 &[wm, zeta, share, DRIVE_START],
             );
@@ -163,11 +169,11 @@ fn flexible_trunk(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
                 let (zeta, share) = (LINK_ZETA, LINK_SHARE);
                 let mut s = with(
                     spec,
-                    "flexible_trunk",
+                    EffectKind::FlexibleTrunk,
                     &AXES,
                     &[wx, zeta, share, DRIVE_START],
                 );
-                s.set_value("flexible_trunk", AXES[1], "omega_n", wy);
+                s.set_value(EffectKind::FlexibleTrunk, AXES[1], "omega_n", wy);
                 let mut frees = trunk_frees(&[vec![AXES[0]]], [wx, zeta, share, DRIVE_START], r);
                 frees.extend(trunk_frees(
                     &[vec![AXES[1]]],
@@ -190,14 +196,14 @@ pub fn trunk_in_servo(spec: &ModelSpec) -> Option<ModelSpec> {
     let mut out = spec.clone();
     let mut changed = false;
     // A servo drives one link: a mode stays a filter where a backlash sits inside the servo.
-    let play_inside = |b: Binding| spec.value("backlash", b, "in_servo") == Some(1.0);
+    let play_inside = |b: Binding| spec.value(EffectKind::Backlash, b, "in_servo") == Some(1.0);
     for e in spec.effects.iter().filter(|e| !play_inside(e.binding)) {
         match e.info.kind {
-            "flexible_trunk" if e.value("in_servo") != Some(1.0) => {
-                out.set_value("flexible_trunk", e.binding, "in_servo", 1.0);
+            EffectKind::FlexibleTrunk if e.value("in_servo") != Some(1.0) => {
+                out.set_value(EffectKind::FlexibleTrunk, e.binding, "in_servo", 1.0);
                 changed = true;
             }
-            "structural_mode" => {
+            EffectKind::StructuralMode => {
                 let v = |p: &str, d: f64| e.value(p).unwrap_or(d);
                 let values = [
                     v("omega_n", 10.0),
@@ -206,7 +212,7 @@ pub fn trunk_in_servo(spec: &ModelSpec) -> Option<ModelSpec> {
                     DRIVE_START,
                     1.0,
                 ];
-                add_effect(&mut out, "flexible_trunk", &[e.binding], &values);
+                add_effect(&mut out, EffectKind::FlexibleTrunk, &[e.binding], &values);
                 changed = true;
             }
             _ => {}
@@ -215,10 +221,10 @@ pub fn trunk_in_servo(spec: &ModelSpec) -> Option<ModelSpec> {
     let kept: Vec<_> = spec
         .effects
         .iter()
-        .filter(|e| e.info.kind == "structural_mode" && play_inside(e.binding))
+        .filter(|e| e.info.kind == EffectKind::StructuralMode && play_inside(e.binding))
         .cloned()
         .collect();
-    out.remove("structural_mode");
+    out.remove(EffectKind::StructuralMode);
     for e in kept {
         out.insert(e);
     }
@@ -236,18 +242,18 @@ pub fn trunk_law_starts(alt: &ModelSpec, r: &DataRange) -> Vec<ModelSpec> {
     let trunks: Vec<Binding> = alt
         .effects
         .iter()
-        .filter(|e| e.info.kind == "flexible_trunk")
+        .filter(|e| e.info.kind == EffectKind::FlexibleTrunk)
         .map(|e| e.binding)
         .collect();
     let typical = |omega: Option<f64>| {
         let mut s = alt.clone();
         for &b in &trunks {
             if let Some(w) = omega {
-                s.set_value("flexible_trunk", b, "omega_n", w);
-                s.set_value("flexible_trunk", b, "share", LINK_SHARE);
+                s.set_value(EffectKind::FlexibleTrunk, b, "omega_n", w);
+                s.set_value(EffectKind::FlexibleTrunk, b, "share", LINK_SHARE);
             }
-            s.set_value("flexible_trunk", b, "zeta", LINK_ZETA);
-            s.set_value("flexible_trunk", b, "drive", DRIVE_START);
+            s.set_value(EffectKind::FlexibleTrunk, b, "zeta", LINK_ZETA);
+            s.set_value(EffectKind::FlexibleTrunk, b, "drive", DRIVE_START);
         }
         s
     };
@@ -263,10 +269,15 @@ const LINK_ZETA: f64 = 0.08;
 const LINK_SHARE: f64 = 0.4;
 
 /// The structural modes of a model, in either form: each one's kind and binding.
-pub fn mode_bindings(spec: &ModelSpec) -> Vec<(&'static str, Binding)> {
+pub fn mode_bindings(spec: &ModelSpec) -> Vec<(EffectKind, Binding)> {
     spec.effects
         .iter()
-        .filter(|e| matches!(e.info.kind, "structural_mode" | "flexible_trunk"))
+        .filter(|e| {
+            matches!(
+                e.info.kind,
+                EffectKind::StructuralMode | EffectKind::FlexibleTrunk
+            )
+        })
         .map(|e| (e.info.kind, e.binding))
         .collect()
 }
@@ -283,7 +294,7 @@ pub fn typical_links(spec: &ModelSpec) -> Option<ModelSpec> {
     for (kind, b) in modes {
         s.set_value(kind, b, "zeta", LINK_ZETA);
         s.set_value(kind, b, "share", LINK_SHARE);
-        if kind == "flexible_trunk" {
+        if kind == EffectKind::FlexibleTrunk {
             s.set_value(kind, b, "drive", DRIVE_START);
         }
     }
@@ -296,7 +307,7 @@ pub fn add_typical_link(spec: &mut ModelSpec, b: Binding, omega: f64, in_servo: 
     let law = if in_servo { 1.0 } else { 0.0 };
     add_effect(
         spec,
-        "flexible_trunk",
+        EffectKind::FlexibleTrunk,
         &[b],
         &[omega, LINK_ZETA, LINK_SHARE, DRIVE_START, law],
     );
@@ -325,15 +336,17 @@ const MODE_ZETA_MAX: f64 = 0.4;
 pub fn plausible(frees: &[Free]) -> bool {
     !frees.iter().any(|f| {
         let b = &f.bounds;
-        matches!(f.kind, "structural_mode" | "flexible_trunk")
-            && match f.param {
-                "zeta" => b.value >= 0.98 * MODE_ZETA_MAX,
-                "share" => {
-                    b.value <= 1.05 * b.min
-                        || (f.kind == "flexible_trunk" && b.value >= 0.98 * b.max)
-                }
-                _ => false,
+        matches!(
+            f.kind,
+            EffectKind::StructuralMode | EffectKind::FlexibleTrunk
+        ) && match f.param {
+            "zeta" => b.value >= 0.98 * MODE_ZETA_MAX,
+            "share" => {
+                b.value <= 1.05 * b.min
+                    || (f.kind == EffectKind::FlexibleTrunk && b.value >= 0.98 * b.max)
             }
+            _ => false,
+        }
     })
 }
 
@@ -347,7 +360,7 @@ fn trunk_frees(groups: &[Vec<Binding>], start: [f64; 4], r: &DataRange) -> Vec<F
     let mut out = Vec::new();
     for b in groups {
         out.push(Free::new(
-            "flexible_trunk",
+            EffectKind::FlexibleTrunk,
             b.clone(),
             "omega_n",
             wm,
@@ -355,7 +368,7 @@ fn trunk_frees(groups: &[Vec<Binding>], start: [f64; 4], r: &DataRange) -> Vec<F
             3.0 * r.omega_max,
         ));
         out.push(Free::new(
-            "flexible_trunk",
+            EffectKind::FlexibleTrunk,
             b.clone(),
             "zeta",
             zeta,
@@ -363,7 +376,7 @@ fn trunk_frees(groups: &[Vec<Binding>], start: [f64; 4], r: &DataRange) -> Vec<F
             MODE_ZETA_MAX,
         ));
         out.push(Free::new(
-            "flexible_trunk",
+            EffectKind::FlexibleTrunk,
             b.clone(),
             "share",
             share,
@@ -371,7 +384,7 @@ fn trunk_frees(groups: &[Vec<Binding>], start: [f64; 4], r: &DataRange) -> Vec<F
             0.95,
         ));
         out.push(Free::new(
-            "flexible_trunk",
+            EffectKind::FlexibleTrunk,
             b.clone(),
             "drive",
             drive,
@@ -390,7 +403,7 @@ pub fn trunk_own_frees(spec: &ModelSpec, r: &DataRange) -> Vec<Free> {
     for e in spec
         .effects
         .iter()
-        .filter(|e| e.info.kind == "flexible_trunk")
+        .filter(|e| e.info.kind == EffectKind::FlexibleTrunk)
     {
         let v = |p: &str| e.value(p).unwrap_or(0.0);
         let start = ["omega_n", "zeta", "share", "drive"].map(v);
@@ -413,17 +426,22 @@ mod tests {
         let base = paper_with_limits(1.0, 1.2);
         assert!(trunk_in_servo(&base).is_none());
         let mut s = base.clone();
-        add_effect(&mut s, "structural_mode", &[AXES[0]], &[12.0, 0.06, 0.3]);
         add_effect(
             &mut s,
-            "flexible_trunk",
+            EffectKind::StructuralMode,
+            &[AXES[0]],
+            &[12.0, 0.06, 0.3],
+        );
+        add_effect(
+            &mut s,
+            EffectKind::FlexibleTrunk,
             &[AXES[1]],
             &[27.0, 0.05, 0.2, 0.2, 0.0],
         );
         let v = trunk_in_servo(&s).expect("a variant");
-        assert!(!v.has("structural_mode"));
+        assert!(!v.has(EffectKind::StructuralMode));
         for (b, wn, zeta, share) in [(AXES[0], 12.0, 0.06, 0.3), (AXES[1], 27.0, 0.05, 0.2)] {
-            let val = |p| v.value("flexible_trunk", b, p).unwrap();
+            let val = |p| v.value(EffectKind::FlexibleTrunk, b, p).unwrap();
             assert_eq!(
                 [val("omega_n"), val("zeta"), val("share"), val("in_servo")],
                 [wn, zeta, share, 1.0]
@@ -431,7 +449,7 @@ mod tests {
         }
         assert!(trunk_in_servo(&v).is_none(), "already inside the servo");
         assert_eq!(
-            v.value("acceleration_saturation", AXES[1], "limit"),
+            v.value(EffectKind::AccelerationSaturation, AXES[1], "limit"),
             Some(1.2)
         );
     }
@@ -442,8 +460,18 @@ mod tests {
     #[test]
     fn the_trunk_law_starts_undo_a_filter_fit_at_its_bounds() {
         let mut s = paper_with_limits(1.0, 1.2);
-        add_effect(&mut s, "structural_mode", &[AXES[0]], &[31.0, 0.005, 0.25]);
-        add_effect(&mut s, "structural_mode", &[AXES[1]], &[19.0, 0.005, 0.09]);
+        add_effect(
+            &mut s,
+            EffectKind::StructuralMode,
+            &[AXES[0]],
+            &[31.0, 0.005, 0.25],
+        );
+        add_effect(
+            &mut s,
+            EffectKind::StructuralMode,
+            &[AXES[1]],
+            &[19.0, 0.005, 0.09],
+        );
         let alt = trunk_in_servo(&s).expect("a variant");
         let r = range();
         let starts = trunk_law_starts(&alt, &r);
@@ -454,7 +482,7 @@ mod tests {
         assert!(tops.windows(2).all(|w| w[1] > w[0]) && tops[2] > r.omega_max);
         for (k, st) in starts.iter().enumerate().skip(1) {
             for (b, wn, share) in [(AXES[0], 31.0, 0.25), (AXES[1], 19.0, 0.09)] {
-                let val = |p| st.value("flexible_trunk", b, p).unwrap();
+                let val = |p| st.value(EffectKind::FlexibleTrunk, b, p).unwrap();
                 let (w, sh) = if k == 1 {
                     (wn, share)
                 } else {
@@ -473,7 +501,7 @@ mod tests {
                 );
             }
             assert_eq!(
-                st.value("acceleration_saturation", AXES[1], "limit"),
+                st.value(EffectKind::AccelerationSaturation, AXES[1], "limit"),
                 Some(1.2)
             );
         }
@@ -491,8 +519,8 @@ mod tests {
         let pairs: Vec<(f64, f64)> = starts
             .iter()
             .filter_map(|(s, frees)| {
-                let wx = s.value("flexible_trunk", AXES[0], "omega_n")?;
-                let wy = s.value("flexible_trunk", AXES[1], "omega_n")?;
+                let wx = s.value(EffectKind::FlexibleTrunk, AXES[0], "omega_n")?;
+                let wy = s.value(EffectKind::FlexibleTrunk, AXES[1], "omega_n")?;
                 if wx == wy {
                     return None;
                 }
@@ -515,10 +543,15 @@ mod tests {
         }
         // A model with a mode on one plane already gets no two-plane start.
         let mut one = base.clone();
-        add_effect(&mut one, "structural_mode", &[AXES[0]], &[12.0, 0.06, 0.3]);
+        add_effect(
+            &mut one,
+            EffectKind::StructuralMode,
+            &[AXES[0]],
+            &[12.0, 0.06, 0.3],
+        );
         assert!(flexible_trunk(&one, &r)
             .iter()
-            .all(|(s, _)| s.get("flexible_trunk", AXES[0]).is_none()));
+            .all(|(s, _)| s.get(EffectKind::FlexibleTrunk, AXES[0]).is_none()));
     }
 
     /// A link at its damping cap or at its share's floor or cap is not a mode; one inside them
@@ -539,7 +572,7 @@ mod tests {
         // A mode on the ZMP path may take the whole path.
         let path = |share: f64| {
             vec![Free::new(
-                "structural_mode",
+                EffectKind::StructuralMode,
                 vec![AXES[0]],
                 "share",
                 share,
@@ -559,15 +592,26 @@ mod tests {
     #[test]
     fn the_trunk_law_variant_leaves_a_mode_beside_a_play_inside_the_servo() {
         let mut s = paper_with_limits(1.0, 1.2);
-        add_effect(&mut s, "backlash", &[AXES[0]], &[0.001, 1.0]);
-        add_effect(&mut s, "structural_mode", &AXES, &[12.0, 0.06, 0.3]);
+        add_effect(&mut s, EffectKind::Backlash, &[AXES[0]], &[0.001, 1.0]);
+        add_effect(
+            &mut s,
+            EffectKind::StructuralMode,
+            &AXES,
+            &[12.0, 0.06, 0.3],
+        );
         let v = trunk_in_servo(&s).expect("the y mode moves");
-        assert_eq!(v.value("structural_mode", AXES[0], "omega_n"), Some(12.0));
-        assert!(v.get("flexible_trunk", AXES[0]).is_none());
-        assert_eq!(v.value("flexible_trunk", AXES[1], "in_servo"), Some(1.0));
+        assert_eq!(
+            v.value(EffectKind::StructuralMode, AXES[0], "omega_n"),
+            Some(12.0)
+        );
+        assert!(v.get(EffectKind::FlexibleTrunk, AXES[0]).is_none());
+        assert_eq!(
+            v.value(EffectKind::FlexibleTrunk, AXES[1], "in_servo"),
+            Some(1.0)
+        );
         assert!(zmp_models::Plant::new(&v, 0.001).is_ok());
         // With the play on both axes there is nothing to move.
-        add_effect(&mut s, "backlash", &[AXES[1]], &[0.001, 1.0]);
+        add_effect(&mut s, EffectKind::Backlash, &[AXES[1]], &[0.001, 1.0]);
         assert!(trunk_in_servo(&s).is_none());
     }
 }

@@ -1,6 +1,7 @@
 //! The play's second law: a backlash found on the CoM command (the catalogue's candidate law)
 //! moved inside its axis's servo, between the drive and the trunk (`backlash.in_servo = 1`).
 
+use zmp_models::EffectKind;
 use zmp_models::{Binding, ModelSpec};
 
 /// Drive shares (the part of the axis's inertia on the servo's encoder side) the law is
@@ -29,7 +30,7 @@ pub fn play_in_servo_starts(spec: &ModelSpec) -> Vec<ModelSpec> {
         for factor in LIMIT_FACTORS {
             let mut s = spec.clone();
             for &b in &plays {
-                let Some(mut e) = s.get("backlash", b).cloned() else {
+                let Some(mut e) = s.get(EffectKind::Backlash, b).cloned() else {
                     continue;
                 };
                 // Values may leave out trailing optional parameters: written out in full.
@@ -38,10 +39,15 @@ pub fn play_in_servo_starts(spec: &ModelSpec) -> Vec<ModelSpec> {
                     e.values.push(e.info.params[k].default.unwrap_or(0.0));
                 }
                 s.insert(e);
-                s.set_value("backlash", b, "in_servo", 1.0);
-                s.set_value("backlash", b, "drive", drive);
-                if let Some(limit) = s.value("acceleration_saturation", b, "limit") {
-                    s.set_value("acceleration_saturation", b, "limit", limit * factor);
+                s.set_value(EffectKind::Backlash, b, "in_servo", 1.0);
+                s.set_value(EffectKind::Backlash, b, "drive", drive);
+                if let Some(limit) = s.value(EffectKind::AccelerationSaturation, b, "limit") {
+                    s.set_value(
+                        EffectKind::AccelerationSaturation,
+                        b,
+                        "limit",
+                        limit * factor,
+                    );
                 }
             }
             out.push(s);
@@ -55,9 +61,9 @@ pub fn play_in_servo_starts(spec: &ModelSpec) -> Vec<ModelSpec> {
 pub fn plays_on_command(spec: &ModelSpec) -> Vec<Binding> {
     spec.effects
         .iter()
-        .filter(|e| e.info.kind == "backlash")
+        .filter(|e| e.info.kind == EffectKind::Backlash)
         .filter(|e| e.value("in_servo") != Some(1.0) && e.value("width").unwrap_or(0.0) > 0.0)
-        .filter(|e| spec.value("flexible_trunk", e.binding, "in_servo") != Some(1.0))
+        .filter(|e| spec.value(EffectKind::FlexibleTrunk, e.binding, "in_servo") != Some(1.0))
         .map(|e| e.binding)
         .collect()
 }
@@ -76,14 +82,17 @@ mod tests {
         let base = paper_with_limits(1.0, 1.2);
         assert!(play_in_servo_starts(&base).is_empty());
         let mut s = base.clone();
-        add_effect(&mut s, "backlash", &[AXES[0]], &[0.0005]);
+        add_effect(&mut s, EffectKind::Backlash, &[AXES[0]], &[0.0005]);
         let starts = play_in_servo_starts(&s);
         assert_eq!(starts.len(), 4);
         let mut seen = Vec::new();
         for st in &starts {
-            let v = |p| st.value("backlash", AXES[0], p).unwrap();
+            let v = |p| st.value(EffectKind::Backlash, AXES[0], p).unwrap();
             assert_eq!((v("width"), v("in_servo")), (0.0005, 1.0));
-            let limit = |b| st.value("acceleration_saturation", b, "limit").unwrap();
+            let limit = |b| {
+                st.value(EffectKind::AccelerationSaturation, b, "limit")
+                    .unwrap()
+            };
             seen.push((v("drive"), limit(AXES[0])));
             assert_eq!(limit(AXES[1]), 1.2, "the other axis's limit");
             assert!(st.validate("start").is_ok(), "a valid model");

@@ -2,6 +2,7 @@
 //! what the campaign demands, an identified limit that never acts restarted from there.
 
 use super::{add_effect, per_axis, servo_params, DataRange, Free, Start, AXES};
+use zmp_models::EffectKind;
 use zmp_models::{Binding, ModelSpec};
 
 /// The largest acceleration the campaign demands of `spec`'s linear servo: the largest
@@ -27,7 +28,7 @@ pub fn inactive_limits(spec: &ModelSpec, r: &DataRange) -> Vec<Binding> {
     };
     spec.effects
         .iter()
-        .filter(|e| e.info.kind == "acceleration_saturation" && excited(e.binding))
+        .filter(|e| e.info.kind == EffectKind::AccelerationSaturation && excited(e.binding))
         .filter(|e| e.value("limit").is_some_and(|l| l >= acc))
         .map(|e| e.binding)
         .collect()
@@ -36,11 +37,11 @@ pub fn inactive_limits(spec: &ModelSpec, r: &DataRange) -> Vec<Binding> {
 pub(super) fn acceleration_saturation(spec: &ModelSpec, r: &DataRange) -> Vec<Start> {
     let acc = demanded_acceleration(spec, r);
     let (min, max) = (0.02 * acc, 2.0 * acc);
-    if !spec.has("acceleration_saturation") {
+    if !spec.has(EffectKind::AccelerationSaturation) {
         return per_axis(
             spec,
             r,
-            "acceleration_saturation",
+            EffectKind::AccelerationSaturation,
             "limit",
             &[0.4 * acc, 0.8 * acc],
             min,
@@ -70,13 +71,13 @@ pub(super) fn acceleration_saturation(spec: &ModelSpec, r: &DataRange) -> Vec<St
                     let value = if inactive.contains(b) {
                         v
                     } else {
-                        spec.value("acceleration_saturation", *b, "limit")
+                        spec.value(EffectKind::AccelerationSaturation, *b, "limit")
                             .unwrap_or(v)
                             .clamp(min, max)
                     };
-                    add_effect(&mut s, "acceleration_saturation", &[*b], &[value]);
+                    add_effect(&mut s, EffectKind::AccelerationSaturation, &[*b], &[value]);
                     Free::new(
-                        "acceleration_saturation",
+                        EffectKind::AccelerationSaturation,
                         vec![*b],
                         "limit",
                         value,

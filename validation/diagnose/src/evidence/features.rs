@@ -8,6 +8,7 @@ use super::super::observe::Observation;
 use num_complex::Complex64;
 use std::collections::BTreeMap;
 use zmp_models::effects::tracking_lowpass::TrackingLowpass;
+use zmp_models::EffectKind;
 use zmp_models::{Binding, ModelSpec};
 
 /// Measured over modelled first harmonic of the excited input's own output, per record.
@@ -86,7 +87,7 @@ pub(super) fn median(mut v: Vec<f64>) -> f64 {
 /// `A w^2 |H(jw)|` (`H` the servo's tracking low-pass), reaches the limit of its axis.
 pub fn clamped(spec: &ModelSpec, o: &Observation) -> bool {
     let b = Binding::Axis(o.excited);
-    let Some(limit) = spec.value("acceleration_saturation", b, "limit") else {
+    let Some(limit) = spec.value(EffectKind::AccelerationSaturation, b, "limit") else {
         return false;
     };
     let (omega_n, zeta) = servo_params_of(spec, b);
@@ -482,7 +483,7 @@ mod tests {
         let mut limited = paper();
         crate::candidates::add_effect(
             &mut limited,
-            "acceleration_saturation",
+            EffectKind::AccelerationSaturation,
             &[zmp_models::Binding::Axis(zmp_models::Axis::X)],
             &[0.3],
         );
@@ -495,7 +496,7 @@ mod tests {
         let mut other = paper();
         crate::candidates::add_effect(
             &mut other,
-            "acceleration_saturation",
+            EffectKind::AccelerationSaturation,
             &[zmp_models::Binding::Axis(zmp_models::Axis::Y)],
             &[0.3],
         );

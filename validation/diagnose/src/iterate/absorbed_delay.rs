@@ -54,6 +54,7 @@ use super::super::select::MAX_EFFECTS;
 use super::super::DiagnoseOptions;
 use super::typical::{catalogue_kinds, moved_starts, revived_limits, typical_start};
 use super::{keep_if_removes_most, LoopError};
+use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding, ModelSpec};
 
 /// The model with the delay its low-pass absorbed, when it has none and the delay (beside the
@@ -65,7 +66,7 @@ pub(super) fn look(
     opts: &DiagnoseOptions,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<Option<Augmented>, LoopError> {
-    if current.has("time_delay") || found.len() >= MAX_EFFECTS {
+    if current.has(EffectKind::TimeDelay) || found.len() >= MAX_EFFECTS {
         return Ok(None);
     }
     let r = DataRange::of(obs);
@@ -115,7 +116,7 @@ fn with_typical_structure(
         .filter(|(_, e)| *e)
         .map(|(a, _)| Binding::Axis(*a))
         .collect();
-    add_effect(&mut s, "time_delay", &axes, &[lag]);
+    add_effect(&mut s, EffectKind::TimeDelay, &axes, &[lag]);
     // Under both laws and with idle limits revived, except on a model with a friction: its
     // fits simulate every record, and those starts would multiply them.
     let starts = if engine::heavy_base(current) {

@@ -20,16 +20,16 @@
 //! [`CHI2_MIN`](super::super::select::CHI2_MIN) held-out chi-square).
 
 use super::super::augment::{version_from_diagnosis, Augmented};
-use super::super::candidates::{model_kinds, plausible, play_in_servo_starts, CATALOGUE};
+use super::super::candidates::{plausible, play_in_servo_starts, CATALOGUE};
 use super::super::engine::{self, cross_validate, Scored};
 use super::super::observe::Observation;
 use super::super::select::replaces;
 use super::super::DiagnoseOptions;
 use super::LoopError;
-use zmp_models::ModelSpec;
+use zmp_models::{EffectKind, ModelSpec};
 
 /// The two amplitude laws of the catalogue.
-const LAWS: [&str; 2] = ["backlash", "coulomb_friction"];
+const LAWS: [EffectKind; 2] = [EffectKind::Backlash, EffectKind::CoulombFriction];
 
 /// The effects a version names, the effect it brings in (none: the named law fitted on), and
 /// the version.
@@ -45,9 +45,9 @@ pub(super) fn look(
     opts: &DiagnoseOptions,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<Option<Swap>, LoopError> {
-    let named: Vec<&str> = LAWS
+    let named: Vec<EffectKind> = LAWS
         .into_iter()
-        .filter(|law| found.iter().any(|e| e == law) && current.has(law))
+        .filter(|law| found.iter().any(|e| e == law.name()) && current.has(*law))
         .collect();
     let [removed] = named[..] else {
         return Ok(None);
@@ -77,15 +77,13 @@ pub(super) fn look(
         Ok(Some((found.to_vec(), None, aug)))
     };
     let mut spec = current.clone();
-    for k in model_kinds(removed) {
-        spec.remove(k);
-    }
+    spec.remove(removed);
     let Some(base) = engine::control(&spec, obs) else {
         return fitted_on();
     };
     let candidate = CATALOGUE
         .iter()
-        .find(|c| c.effect == other)
+        .find(|c| c.effect == other.name())
         .expect("a catalogue effect");
     let Some(child) = engine::score_candidate_unscreened(candidate, &base.fitted.spec, obs)
         .filter(|c| plausible(&c.fitted.frees[..c.fitted.own]))
@@ -93,15 +91,15 @@ pub(super) fn look(
         return fitted_on();
     };
     let mut best = child;
-    if other == "backlash" {
+    if other == EffectKind::Backlash {
         // The play inside its servo too, from the command law's fit.
         let inside = engine::refit_all_from(
             &play_in_servo_starts(&best.fitted.spec),
-            &["backlash", "acceleration_saturation"],
+            &[EffectKind::Backlash, EffectKind::AccelerationSaturation],
             obs,
         );
         if let Some(f) = inside {
-            let mut s: Scored = cross_validate(other, f, obs);
+            let mut s: Scored = cross_validate(other.name(), f, obs);
             s.effect = other.to_string();
             if s.chi2 < best.chi2 {
                 best = s;
@@ -113,14 +111,14 @@ pub(super) fn look(
         "{other} in place of {removed}: held-out chi-square {:.0} against {:.0}",
         best.chi2, now.chi2
     ));
-    if !replaces(&best, removed, now.chi2) {
+    if !replaces(&best, removed.name(), now.chi2) {
         return fitted_on();
     }
     progress(&format!("{other} replaces {removed}"));
     let names: Vec<String> = found
         .iter()
         .map(|e| {
-            if e == removed {
+            if e == removed.name() {
                 other.to_string()
             } else {
                 e.clone()

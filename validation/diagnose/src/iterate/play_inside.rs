@@ -27,6 +27,7 @@ use super::super::run::explains;
 use super::super::select::{amplitude_shown, MAX_EFFECTS};
 use super::super::DiagnoseOptions;
 use super::{keep_if_removes_most, LoopError};
+use zmp_models::EffectKind;
 use zmp_models::ModelSpec;
 
 /// The model with a play inside its servo, when `current` leaves the data unexplained, has
@@ -38,7 +39,7 @@ pub(super) fn look(
     opts: &DiagnoseOptions,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<Option<Augmented>, LoopError> {
-    if current.has("backlash") || found.len() >= MAX_EFFECTS {
+    if current.has(EffectKind::Backlash) || found.len() >= MAX_EFFECTS {
         return Ok(None);
     }
     if explains(obs, &predict(current, obs)?) {
@@ -68,9 +69,11 @@ pub(super) fn look(
     let Some(now) = engine::score_as_it_is(current, obs) else {
         return Ok(None);
     };
-    let Some(fitted) =
-        engine::refit_all_from(&starts, &["backlash", "acceleration_saturation"], obs)
-    else {
+    let Some(fitted) = engine::refit_all_from(
+        &starts,
+        &[EffectKind::Backlash, EffectKind::AccelerationSaturation],
+        obs,
+    ) else {
         return Ok(None);
     };
     let child = engine::cross_validate("backlash", fitted, obs);

@@ -34,6 +34,7 @@ use super::super::observe::Observation;
 use super::super::run::DiagnoseError;
 use super::super::select::{beyond_noise, dominates, plausible as supported, replaces, CHI2_MIN};
 use super::super::DiagnoseOptions;
+use zmp_models::EffectKind;
 use zmp_models::ModelSpec;
 
 /// The effects the model that replaces `current` names (`found` with one effect replaced or
@@ -45,7 +46,7 @@ pub(super) fn revise(
     opts: &DiagnoseOptions,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<Option<(Vec<String>, String, Augmented)>, DiagnoseError> {
-    if !current.has("backlash") || !found.iter().any(|e| e == "backlash") {
+    if !current.has(EffectKind::Backlash) || !found.iter().any(|e| e == "backlash") {
         return Ok(None);
     }
     progress("judging the other effects again with the play inside its servo");
@@ -61,7 +62,7 @@ pub(super) fn revise(
     } else {
         let Some(f) = engine::refit_all_from(
             &play_in_servo_starts(current),
-            &["backlash", "acceleration_saturation"],
+            &[EffectKind::Backlash, EffectKind::AccelerationSaturation],
             obs,
         ) else {
             return Ok(None);
@@ -102,7 +103,7 @@ pub(super) fn revise(
         .collect();
     for removed in others {
         let mut spec = law.fitted.spec.clone();
-        for k in model_kinds(removed) {
+        for &k in model_kinds(removed) {
             spec.remove(k);
         }
         let Some(mut base) = engine::control(&spec, obs) else {
@@ -113,7 +114,7 @@ pub(super) fn revise(
         if !on_command && !plays_on_command(&spec).is_empty() {
             if let Some(f) = engine::refit_all_from(
                 &play_in_servo_starts(&spec),
-                &["backlash", "acceleration_saturation"],
+                &[EffectKind::Backlash, EffectKind::AccelerationSaturation],
                 obs,
             ) {
                 let inside = cross_validate("backlash", f, obs);

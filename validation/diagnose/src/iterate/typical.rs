@@ -29,6 +29,7 @@ use super::super::observe::Observation;
 use super::super::run::explains;
 use super::super::DiagnoseOptions;
 use super::{adopt_law, LoopError};
+use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding, ModelSpec};
 
 /// The change label of the version this writes.
@@ -41,8 +42,13 @@ pub(super) fn typical_start(current: &ModelSpec, seed_servo: bool) -> Option<Mod
     let mut s = typical_links(current)?;
     if seed_servo {
         for a in Axis::BOTH {
-            s.set_value("tracking_lowpass", Binding::Axis(a), "omega_n", 30.0);
-            s.set_value("tracking_lowpass", Binding::Axis(a), "zeta", 1.0);
+            s.set_value(
+                EffectKind::TrackingLowpass,
+                Binding::Axis(a),
+                "omega_n",
+                30.0,
+            );
+            s.set_value(EffectKind::TrackingLowpass, Binding::Axis(a), "zeta", 1.0);
         }
     }
     Some(s)
@@ -68,10 +74,14 @@ pub(super) fn moved_starts(starts: Vec<ModelSpec>, r: &DataRange) -> Vec<ModelSp
     }
     let with_delays: Vec<ModelSpec> = out
         .iter()
-        .filter(|s| s.has("time_delay"))
+        .filter(|s| s.has(EffectKind::TimeDelay))
         .map(|s| {
             let mut t = s.clone();
-            for e in t.effects.iter_mut().filter(|e| e.info.kind == "time_delay") {
+            for e in t
+                .effects
+                .iter_mut()
+                .filter(|e| e.info.kind == EffectKind::TimeDelay)
+            {
                 if let Some(i) = e.info.param_index("delay") {
                     e.values[i] *= DELAY_RESTART;
                 }
@@ -90,11 +100,15 @@ pub(super) fn moved_starts(starts: Vec<ModelSpec>, r: &DataRange) -> Vec<ModelSp
 /// against the drawn 33.3 and 0.78, and delays of 16-17 ms).
 fn lag_to_delays(current: &ModelSpec, r: &DataRange) -> Option<ModelSpec> {
     let lag = absorbed_lag(current, r)?;
-    if !current.has("time_delay") {
+    if !current.has(EffectKind::TimeDelay) {
         return None;
     }
     let mut s = typical_start(current, true)?;
-    for e in s.effects.iter_mut().filter(|e| e.info.kind == "time_delay") {
+    for e in s
+        .effects
+        .iter_mut()
+        .filter(|e| e.info.kind == EffectKind::TimeDelay)
+    {
         if let Some(i) = e.info.param_index("delay") {
             e.values[i] += lag;
         }
@@ -152,7 +166,7 @@ fn new_plane_starts(current: &ModelSpec, r: &DataRange) -> Vec<ModelSpec> {
     let in_servo = base
         .effects
         .iter()
-        .any(|e| e.info.kind == "flexible_trunk" && e.value("in_servo") == Some(1.0));
+        .any(|e| e.info.kind == EffectKind::FlexibleTrunk && e.value("in_servo") == Some(1.0));
     let mut out = Vec::new();
     for a in Axis::BOTH {
         let b = Binding::Axis(a);
@@ -189,7 +203,7 @@ pub(super) fn revived_limits(starts: Vec<ModelSpec>, r: &DataRange) -> Vec<Model
         let mut t = s.clone();
         let restart = 0.9 * demanded_acceleration(s, r);
         for b in idle {
-            t.set_value("acceleration_saturation", b, "limit", restart);
+            t.set_value(EffectKind::AccelerationSaturation, b, "limit", restart);
         }
         out.push(t);
     }
@@ -197,7 +211,7 @@ pub(super) fn revived_limits(starts: Vec<ModelSpec>, r: &DataRange) -> Vec<Model
 }
 
 /// Every kind of effect the loop can add (their parameters all refitted, besides the core).
-pub(super) fn catalogue_kinds() -> Vec<&'static str> {
+pub(super) fn catalogue_kinds() -> Vec<EffectKind> {
     CATALOGUE
         .iter()
         .flat_map(|c| model_kinds(c.effect).iter().copied())
@@ -260,7 +274,7 @@ pub(super) fn refit(
         .iter()
         .filter_map(|group| engine::refit_all_from(group, &kinds, obs))
         .min_by(|a, b| a.cost.total_cmp(&b.cost));
-    let changed = |kind: &str, now_has: bool| {
+    let changed = |kind: EffectKind, now_has: bool| {
         fitted
             .as_ref()
             .filter(|f| current.has(kind) == now_has && f.spec.has(kind) != now_has)
@@ -270,7 +284,7 @@ pub(super) fn refit(
     let dropped = changed(LOWPASS, true);
     let added: Vec<String> = [DELAY, LIMIT]
         .iter()
-        .flat_map(|k| changed(k, false))
+        .flat_map(|&k| changed(k, false))
         .collect();
     let mut label = TYPICAL_REFIT.to_string();
     for e in &dropped {
@@ -297,11 +311,11 @@ pub(super) struct Refitted {
 
 /// The delay and the force limit, which [`without_sensor_lowpass`] starts add where the model
 /// has none.
-const DELAY: &str = "time_delay";
-const LIMIT: &str = "acceleration_saturation";
+const DELAY: EffectKind = EffectKind::TimeDelay;
+const LIMIT: EffectKind = EffectKind::AccelerationSaturation;
 
 /// The sensor low-pass, which [`without_sensor_lowpass`] starts also leave out.
-const LOWPASS: &str = "sensor_lowpass";
+const LOWPASS: EffectKind = EffectKind::SensorLowpass;
 
 /// With a sensor low-pass beside a mode: the seed-servo typical start under both laws without
 /// it, its delays (one on each excited axis where it has none) at each of the delay
@@ -350,7 +364,7 @@ fn without_sensor_lowpass(current: &ModelSpec, r: &DataRange) -> Vec<ModelSpec> 
     let in_servo = |s: &ModelSpec| {
         s.effects
             .iter()
-            .any(|e| e.info.kind == "flexible_trunk" && e.value("in_servo") == Some(1.0))
+            .any(|e| e.info.kind == EffectKind::FlexibleTrunk && e.value("in_servo") == Some(1.0))
     };
     for b in &axes {
         if mode_bindings(&base).iter().any(|(_, m)| m == b) {
@@ -406,34 +420,39 @@ mod tests {
         let y = Binding::Axis(Axis::Y);
         let mut m = m;
         for a in Axis::BOTH {
-            m.set_value("tracking_lowpass", Binding::Axis(a), "omega_n", 14.0);
-            m.set_value("tracking_lowpass", Binding::Axis(a), "zeta", 0.35);
+            m.set_value(
+                EffectKind::TrackingLowpass,
+                Binding::Axis(a),
+                "omega_n",
+                14.0,
+            );
+            m.set_value(EffectKind::TrackingLowpass, Binding::Axis(a), "zeta", 0.35);
         }
         for seed in [false, true] {
             let s = typical_start(&m, seed).unwrap();
-            let v = |k: &str, b: Binding, p: &str| s.value(k, b, p).unwrap();
+            let v = |k: EffectKind, b: Binding, p: &str| s.value(k, b, p).unwrap();
             assert_eq!(
                 [
-                    v("flexible_trunk", x, "omega_n"),
-                    v("flexible_trunk", x, "zeta"),
-                    v("flexible_trunk", x, "share"),
-                    v("flexible_trunk", x, "drive"),
-                    v("flexible_trunk", x, "in_servo"),
+                    v(EffectKind::FlexibleTrunk, x, "omega_n"),
+                    v(EffectKind::FlexibleTrunk, x, "zeta"),
+                    v(EffectKind::FlexibleTrunk, x, "share"),
+                    v(EffectKind::FlexibleTrunk, x, "drive"),
+                    v(EffectKind::FlexibleTrunk, x, "in_servo"),
                 ],
                 [18.5, 0.08, 0.4, 0.3, 1.0]
             );
             assert_eq!(
                 [
-                    v("structural_mode", y, "omega_n"),
-                    v("structural_mode", y, "zeta"),
-                    v("structural_mode", y, "share"),
+                    v(EffectKind::StructuralMode, y, "omega_n"),
+                    v(EffectKind::StructuralMode, y, "zeta"),
+                    v(EffectKind::StructuralMode, y, "share"),
                 ],
                 [14.3, 0.08, 0.4]
             );
-            assert_eq!(v("time_delay", x, "delay"), 0.121);
+            assert_eq!(v(EffectKind::TimeDelay, x, "delay"), 0.121);
             let servo = [
-                v("tracking_lowpass", x, "omega_n"),
-                v("tracking_lowpass", x, "zeta"),
+                v(EffectKind::TrackingLowpass, x, "omega_n"),
+                v(EffectKind::TrackingLowpass, x, "zeta"),
             ];
             assert_eq!(servo, if seed { [30.0, 1.0] } else { [14.0, 0.35] });
         }
@@ -458,10 +477,10 @@ mod tests {
         let (x, y) = (Binding::Axis(Axis::X), Binding::Axis(Axis::Y));
         let key = |s: &ModelSpec| {
             (
-                s.value("flexible_trunk", x, "omega_n").unwrap(),
-                s.value("flexible_trunk", y, "omega_n").unwrap(),
-                s.value("time_delay", x, "delay").unwrap(),
-                s.value("time_delay", y, "delay").unwrap(),
+                s.value(EffectKind::FlexibleTrunk, x, "omega_n").unwrap(),
+                s.value(EffectKind::FlexibleTrunk, y, "omega_n").unwrap(),
+                s.value(EffectKind::TimeDelay, x, "delay").unwrap(),
+                s.value(EffectKind::TimeDelay, y, "delay").unwrap(),
             )
         };
         let keys: Vec<_> = starts.iter().map(key).collect();
@@ -492,19 +511,24 @@ mod tests {
             "the seed's servo lags no more than itself"
         );
         for a in Axis::BOTH {
-            m.set_value("tracking_lowpass", Binding::Axis(a), "omega_n", 16.6);
-            m.set_value("tracking_lowpass", Binding::Axis(a), "zeta", 0.74);
+            m.set_value(
+                EffectKind::TrackingLowpass,
+                Binding::Axis(a),
+                "omega_n",
+                16.6,
+            );
+            m.set_value(EffectKind::TrackingLowpass, Binding::Axis(a), "zeta", 0.74);
         }
         let lag = 2.0 * 0.74 / 16.6 - 2.0 / 30.0;
         let s = lag_to_delays(&m, &r).unwrap();
-        let v = |k: &str, b: Binding, p: &str| s.value(k, b, p).unwrap();
-        assert_eq!(v("tracking_lowpass", x, "omega_n"), 30.0);
-        assert_eq!(v("tracking_lowpass", y, "zeta"), 1.0);
-        assert!((v("time_delay", x, "delay") - (0.0169 + lag)).abs() < 1e-12);
-        assert!((v("time_delay", y, "delay") - (0.0156 + lag)).abs() < 1e-12);
+        let v = |k: EffectKind, b: Binding, p: &str| s.value(k, b, p).unwrap();
+        assert_eq!(v(EffectKind::TrackingLowpass, x, "omega_n"), 30.0);
+        assert_eq!(v(EffectKind::TrackingLowpass, y, "zeta"), 1.0);
+        assert!((v(EffectKind::TimeDelay, x, "delay") - (0.0169 + lag)).abs() < 1e-12);
+        assert!((v(EffectKind::TimeDelay, y, "delay") - (0.0156 + lag)).abs() < 1e-12);
         // The link made typical as in the seed's start.
-        assert_eq!(v("flexible_trunk", x, "drive"), 0.3);
-        m.remove("time_delay");
+        assert_eq!(v(EffectKind::FlexibleTrunk, x, "drive"), 0.3);
+        m.remove(EffectKind::TimeDelay);
         assert!(lag_to_delays(&m, &r).is_none());
     }
 }

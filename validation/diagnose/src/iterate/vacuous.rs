@@ -43,7 +43,7 @@ pub(super) fn take_out(
             continue;
         }
         let mut without = spec.clone();
-        for k in model_kinds(e) {
+        for &k in model_kinds(e) {
             without.remove(k);
         }
         if without.effects.len() == spec.effects.len() {

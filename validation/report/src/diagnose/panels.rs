@@ -59,8 +59,8 @@ pub(super) fn bode_panels(obs: &[&Observation], models: &[Overlay]) -> Vec<BodeP
     out
 }
 
-/// Error over noise floor per record and channel against log10 frequency, one series per
-/// amplitude.
+/// Error over noise floor per record and channel against frequency (for
+/// [`frequency_svg`](crate::plot::frequency_svg)), one series per amplitude.
 pub(super) fn error_panels(obs: &[&Observation], preds: &[Prediction]) -> Vec<TimePanel> {
     let mut amps: Vec<f64> = obs.iter().map(|o| o.nominal_amplitude).collect();
     amps.sort_by(f64::total_cmp);
@@ -91,7 +91,7 @@ pub(super) fn error_panels(obs: &[&Observation], preds: &[Prediction]) -> Vec<Ti
             }
             series.push(TimeSeries {
                 label: format!("{:.1} mm", a * 1e3),
-                t: by_w.iter().map(|x| x.0.log10()).collect(),
+                t: by_w.iter().map(|x| x.0).collect(),
                 y: by_w
                     .iter()
                     .map(|x| (x.1 / x.2.max(1e-300)).sqrt())
@@ -116,12 +116,14 @@ pub(super) fn error_panels(obs: &[&Observation], preds: &[Prediction]) -> Vec<Ti
             y_label: "error / floor".into(),
             series,
             markers: vec![],
-            x_label: Some("log10 omega (rad/s)".into()),
+            x_label: None,
         });
     }
     out
 }
 
+/// The third harmonic of the measured ZMP against frequency, per channel (for
+/// [`frequency_svg`](crate::plot::frequency_svg)).
 pub(super) fn harmonic_panel(obs: &[&Observation]) -> TimePanel {
     let mut series = Vec::new();
     for (m, ch) in Channel::ALL.iter().enumerate() {
@@ -129,12 +131,7 @@ pub(super) fn harmonic_panel(obs: &[&Observation]) -> TimePanel {
         let mut pts: Vec<(f64, f64)> = obs
             .iter()
             .filter(|o| o.excited.index() == j)
-            .map(|o| {
-                (
-                    o.omega.log10(),
-                    100.0 * o.y3[i].norm() / o.y1[i].norm().max(1e-300),
-                )
-            })
+            .map(|o| (o.omega, 100.0 * o.y3[i].norm() / o.y1[i].norm().max(1e-300)))
             .collect();
         if pts.is_empty() {
             continue;
@@ -153,7 +150,7 @@ pub(super) fn harmonic_panel(obs: &[&Observation]) -> TimePanel {
         y_label: "|Y3| / |Y1| (%)".into(),
         series,
         markers: vec![],
-        x_label: Some("log10 omega (rad/s)".into()),
+        x_label: None,
     }
 }
 

@@ -49,6 +49,10 @@ enum Silo2Cmd {
         /// softness budget; the closed loop and the checks are the same.
         #[arg(long)]
         short: bool,
+        /// The campaign extended to 50 rad/s (240 records: 96 more, 0.1 and 0.2 mm of CoM from
+        /// 14 to 50 rad/s), to tell the stance resonance from an in-band surrogate.
+        #[arg(long, conflicts_with = "short")]
+        extended: bool,
         /// Replace OUT if it holds an earlier validation.
         #[arg(long)]
         force: bool,
@@ -74,7 +78,7 @@ enum Silo2Cmd {
         frames_unavailable: Option<String>,
         /// Also write this run's numbers into the book page at PATH (docs/src/twin-silo2.md),
         /// between its `<!-- twin-silo2:... -->` markers (the full run only: the page quotes it).
-        #[arg(long, value_name = "PATH", conflicts_with = "short")]
+        #[arg(long, value_name = "PATH", conflicts_with_all = ["short", "extended"])]
         readme: Option<PathBuf>,
     },
     /// Only the stepped-sine campaign (zmp-campaign/1) into OUT.
@@ -85,6 +89,9 @@ enum Silo2Cmd {
         /// The short campaign (10 records) instead of the full one (144).
         #[arg(long)]
         short: bool,
+        /// The full campaign extended to 50 rad/s (240 records).
+        #[arg(long, conflicts_with = "short")]
+        extended: bool,
         /// Replace an existing campaign folder.
         #[arg(long)]
         force: bool,
@@ -154,6 +161,7 @@ fn run(cli: Cli) -> Result<()> {
             Silo2Cmd::Validate {
                 out,
                 short,
+                extended,
                 force,
                 json,
                 model,
@@ -177,6 +185,7 @@ fn run(cli: Cli) -> Result<()> {
                     model,
                     out,
                     short,
+                    extended,
                     force,
                     threads: threads(n),
                     quiet: json,
@@ -198,6 +207,7 @@ fn run(cli: Cli) -> Result<()> {
             Silo2Cmd::Campaign {
                 out,
                 short,
+                extended,
                 force,
                 json,
                 model,
@@ -208,6 +218,8 @@ fn run(cli: Cli) -> Result<()> {
                 let props = silo2::props::mass_properties(&twin)?;
                 let mut design = if short {
                     TwinDesign::short()
+                } else if extended {
+                    TwinDesign::extended()
                 } else {
                     TwinDesign::full()
                 };

@@ -3,14 +3,14 @@
 //! and our D-optimal design, compared with MuJoCo's true CoM.
 
 pub use super::postures::{candidates, home_pelvis_x, seed_design, Kinematics, PostureSpec};
-use super::robot::{PointMass, Sabian, Variant};
+use super::robot::{PointMass, Sabian, Variant, MOTORS};
 use crate::mj::TwinError;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use zmp_models::com::{
-    self, d_optimal_subset, intersect, rigid_com, rot_x, rot_y, CadCom, CalibrationPosture,
-    NoiseModel, PostureLines, PostureWrench, RegressorModel, SensorReading, SoleCad, Vec3, Wrench,
-    G,
+    self, d_optimal_subset, intersect, joint_moments, rigid_com, rot_x, rot_y, CadCom,
+    CalibrationPosture, JointAxis, MotorCurrent, NoiseModel, PostureLines, PostureWrench,
+    RegressorModel, SensorReading, SoleCad, Vec3, Wrench, G,
 };
 
 /// The "real robot": the CAD model plus 3 kg of cables and electronics on the trunk's back,
@@ -76,6 +76,58 @@ pub struct HeldPosture {
     /// The real twin's body above the sensors (kg, m) and whole robot's CoM (m).
     pub true_body: (f64, Vec3),
     pub true_com: Vec3,
+    /// Each servo's torque (N m, averaged like the readings) and its joint's axis: the motor
+    /// currents of the seed's eq. 7.
+    pub motor_torques: [f64; MOTORS],
+    pub motor_axes: [JointAxis; MOTORS],
+}
+
+/// The seed's eq. 7 on the twin: `M = K I` per motor, the current `I` simulated from the
+/// servo's torque, `I = tau / K` plus the current sensing noise. The seed gives no K; the
+/// twin's (torque constant times gear ratio) are 4.8 N m/A for pitch joints, 3.6 for roll and
+/// 2.4 for yaw. Since `K I` gives back the torque, K only scales the noise.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct MotorModel {
+    pub k_pitch_nm_per_a: f64,
+    pub k_roll_nm_per_a: f64,
+    pub k_yaw_nm_per_a: f64,
+    /// White noise of each averaged current reading (A).
+    pub current_std_a: f64,
+}
+
+impl MotorModel {
+    pub fn twin() -> MotorModel {
+        MotorModel {
+            k_pitch_nm_per_a: 4.8,
+            k_roll_nm_per_a: 3.6,
+            k_yaw_nm_per_a: 2.4,
+            current_std_a: 0.01,
+        }
+    }
+
+    fn k(&self, axis: JointAxis) -> f64 {
+        match axis {
+            JointAxis::Pitch => self.k_pitch_nm_per_a,
+            JointAxis::Roll => self.k_roll_nm_per_a,
+            JointAxis::Yaw => self.k_yaw_nm_per_a,
+        }
+    }
+
+    /// The seed's `M_2 = (sum of roll, sum of pitch, sum of yaw joint moments)` (eq. 7) from
+    /// simulated currents of a held posture (N m).
+    pub fn m2(&self, h: &HeldPosture, rng: &mut ChaCha8Rng) -> Result<Vec3, com::ComError> {
+        let currents: Vec<MotorCurrent> = (0..MOTORS)
+            .map(|k| {
+                let kk = self.k(h.motor_axes[k]);
+                MotorCurrent {
+                    axis: h.motor_axes[k],
+                    torque_constant_nm_per_a: kk,
+                    current_a: h.motor_torques[k] / kk + self.current_std_a * normal(rng),
+                }
+            })
+            .collect();
+        joint_moments(&currents)
+    }
 }
 
 /// Holds each posture on the real twin (`real`: the CAD model plus extra masses) and on the CAD
@@ -98,6 +150,7 @@ pub fn hold_postures(
             robot.data.step();
         }
         let mut acc = [[0.0; 6]; 2];
+        let mut torques = [0.0; MOTORS];
         let n = 500;
         for _ in 0..n {
             robot.data.step();
@@ -106,6 +159,9 @@ pub fn hold_postures(
                 for i in 0..6 {
                     a[i] += w[i] / n as f64;
                 }
+            }
+            for (t, m) in torques.iter_mut().zip(robot.motor_torques()) {
+                *t += m / n as f64;
             }
         }
         // The encoders read the real joint angles and the base pose follows from the feet on
@@ -127,6 +183,8 @@ pub fn hold_postures(
             kinematics,
             true_body: (m, first / m),
             true_com: robot.com(),
+            motor_torques: torques,
+            motor_axes: std::array::from_fn(|k| robot.idx.servo_axis[k]),
         })
     })
 }
@@ -288,18 +346,33 @@ fn result(total: &CadCom, truth: &Vec3, cov: &com::Mat3) -> ComResult {
     }
 }
 
+/// The seed's two-posture calibration of one draw: with the sensors as stated and perfectly
+/// zeroed (both with `M_2 = 0`, ours), and the seed's eq. 7 variant with zeroed sensors,
+/// `M_2 = + sum K I` and `- sum K I` (the seed does not fix the joint moments' sign).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SeedCalibration {
+    pub with_offsets: ComResult,
+    pub zeroed: ComResult,
+    pub eq7_plus: ComResult,
+    pub eq7_minus: ComResult,
+}
+
 /// The seed's two-posture formula (eqs. 3, 5, 6) on two held postures, readings in the pelvis
-/// frame. `with_offsets = false` is the oracle that has zeroed the sensors perfectly.
+/// frame. The eq. 7 variants draw their current noise from `current_rng` (so the other results
+/// do not depend on it).
 pub fn seed_calibration(
     held: &[HeldPosture; 2],
     soles: [SoleCad; 2],
     offsets: &[Wrench; 2],
     noise: &SensorNoise,
     rng: &mut ChaCha8Rng,
-) -> Result<(ComResult, ComResult), com::ComError> {
+    motors: &MotorModel,
+    current_rng: &mut ChaCha8Rng,
+) -> Result<SeedCalibration, com::ComError> {
     let zero = [Wrench::zero(), Wrench::zero()];
     let tilts = draw_tilts(2, noise, rng);
     let mut out = Vec::new();
+    let mut eq7 = Vec::new();
     for offs in [offsets, &zero] {
         let m: Vec<_> = held
             .iter()
@@ -307,20 +380,49 @@ pub fn seed_calibration(
             .map(|(h, t)| measure(h, offs, noise, t, 1.0, rng))
             .collect();
         let pw: Vec<PostureWrench> = m.iter().map(|(r, k)| pelvis_frame_posture(r, k)).collect();
-        let la = PostureLines::from_posture(&pw[0], 20.0)?;
-        let lb = PostureLines::from_posture(&pw[1], 20.0)?;
-        let c_pel = intersect(&la, &lb, 1e-3)?;
-        let ls = rigid_com(&pw, &noise.model(), 20.0, 1e-3)?;
-        // Back to the world at the upright posture (the true upright kinematics).
-        let k0 = &held[0].kinematics;
-        let c2 = k0.pelvis.0 + k0.pelvis.1 * c_pel;
-        let cov2 = k0.pelvis.1 * ls.covariance * k0.pelvis.1.transpose();
-        let (with, without) = cad_with_and_without_feet(&held[0], &soles);
-        let total = com::total_com_with_feet(la.mass_kg, &c2, &with, &without)?;
-        let f = la.mass_kg / total.mass_kg;
-        out.push(result(&total, &held[0].true_com, &(cov2 * f * f)));
+        out.push(seed_estimate(held, &pw, soles, noise)?);
+        if offs == &zero {
+            let m2: Vec<Vec3> = held
+                .iter()
+                .map(|h| motors.m2(h, current_rng))
+                .collect::<Result<_, _>>()?;
+            for sign in [1.0, -1.0] {
+                let mut p = pw.clone();
+                for (p, m) in p.iter_mut().zip(&m2) {
+                    p.extra_moment = m * sign;
+                }
+                eq7.push(seed_estimate(held, &p, soles, noise)?);
+            }
+        }
     }
-    Ok((out[0], out[1]))
+    Ok(SeedCalibration {
+        with_offsets: out[0],
+        zeroed: out[1],
+        eq7_plus: eq7[0],
+        eq7_minus: eq7[1],
+    })
+}
+
+/// Eqs. 3, 5 and 6 on two postures' pelvis-frame wrenches, back in the world at the upright
+/// posture, with the covariance of the least-squares form.
+fn seed_estimate(
+    held: &[HeldPosture; 2],
+    pw: &[PostureWrench],
+    soles: [SoleCad; 2],
+    noise: &SensorNoise,
+) -> Result<ComResult, com::ComError> {
+    let la = PostureLines::from_posture(&pw[0], 20.0)?;
+    let lb = PostureLines::from_posture(&pw[1], 20.0)?;
+    let c_pel = intersect(&la, &lb, 1e-3)?;
+    let ls = rigid_com(pw, &noise.model(), 20.0, 1e-3)?;
+    // Back to the world at the upright posture (the true upright kinematics).
+    let k0 = &held[0].kinematics;
+    let c2 = k0.pelvis.0 + k0.pelvis.1 * c_pel;
+    let cov2 = k0.pelvis.1 * ls.covariance * k0.pelvis.1.transpose();
+    let (with, without) = cad_with_and_without_feet(&held[0], &soles);
+    let total = com::total_com_with_feet(la.mass_kg, &c2, &with, &without)?;
+    let f = la.mass_kg / total.mass_kg;
+    Ok(result(&total, &held[0].true_com, &(cov2 * f * f)))
 }
 
 /// Our calibration: the static regressor with the offsets as nuisance parameters on the held
@@ -389,6 +491,8 @@ pub fn design(
             kinematics: k,
             true_body: (0.0, Vec3::zeros()),
             true_com: Vec3::zeros(),
+            motor_torques: [0.0; MOTORS],
+            motor_axes: [JointAxis::Pitch; MOTORS],
         };
         let p = regressor_posture(&fake, &[Wrench::zero(); 2], &k);
         let guess = [3.0, 0.0, 0.0, 0.0];

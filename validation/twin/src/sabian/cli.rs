@@ -10,17 +10,20 @@ use zmp_models::walking::Gait;
 
 #[derive(Subcommand)]
 pub enum SabianCommand {
-    /// Calibrate the effective CoM on the twin (the seed's upright + 1 degree design and a
-    /// D-optimal design, over noise draws), build the virtual models n, r, s, v (and e), walk
-    /// the seed's gait with each, and write com-calibration.toml, report.html and SVG figures.
+    /// Calibrate the effective CoM on the twin (the seed's upright + 1 degree design, with and
+    /// without its eq. 7 joint moments, and a D-optimal design, over noise draws), build the
+    /// virtual models n, r, s, v (and e), walk the seed's gait with each open loop and with the
+    /// seed's Torso Position Control, and write com-calibration.toml, report.html and SVG
+    /// figures.
     CalibrateCom {
         /// Output folder.
         #[arg(long, default_value = "target/com-calibration")]
         out: PathBuf,
-        /// The short version (1 walking run per model, 40 noise draws) used by the demo.
+        /// The short version (1 walking run per model and control, 40 noise draws) used by the
+        /// demo.
         #[arg(long)]
         quick: bool,
-        /// Walking runs per model (default 5, the seed's; 1 with --quick).
+        /// Walking runs per model and control (default 5, the seed's; 1 with --quick).
         #[arg(long)]
         runs: Option<usize>,
         /// Noise draws of each calibration (default 200; 40 with --quick).
@@ -77,7 +80,8 @@ pub fn run(cmd: SabianCommand) -> Result<()> {
             let cal = calibrate(&opt)?;
             let models = virtual_models(&cal);
             eprintln!(
-                "walking {} models x {} runs ({:.1} s so far) ...",
+                "walking {} models x {} runs, open loop and with Torso Position Control ({:.1} s \
+                 so far) ...",
                 models.len(),
                 opt.runs,
                 started.elapsed().as_secs_f64()

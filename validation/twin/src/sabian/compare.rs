@@ -2,6 +2,10 @@
 //! measured ZMP (position, velocity, acceleration; x, y and the distance from the origin rho,
 //! eq. 8) and the RMS of the roll joints' tracking, plus the mean ZMP bias that correlation
 //! cannot see. Velocities and accelerations are differences over the seed's 0.03 s phases.
+//!
+//! The seed's "XY" RMS rows are computed two ways by the report: the RMS of the change of
+//! `rho` (eq. 8's text, here `rms_*[2]`) and the root-sum-square `sqrt(X^2 + Y^2)` of the
+//! per-axis RMS (what the seed's table 3 holds: [`super::tables::seed_xy_check`]).
 
 use super::walk::Run;
 
@@ -70,8 +74,18 @@ pub struct RunMetrics {
     pub roll_acc: [f64; 4],
 }
 
-/// The figures of one run sampled every `dt` (s).
+/// The figures of one run sampled every `dt` (s), over the whole record (the seed's 512
+/// phases).
 pub fn metrics(run: &Run, dt: f64) -> RunMetrics {
+    metrics_over(run, dt, 0..run.zmp.len())
+}
+
+/// The figures over the phases `window` only (the seed's other variant: the 256 phases of the
+/// motion). Velocities and accelerations are differentiated over the whole record first, so the
+/// window's ends are central differences like its inside.
+pub fn metrics_over(run: &Run, dt: f64, window: std::ops::Range<usize>) -> RunMetrics {
+    let n = run.zmp.len().min(run.zmp_plan.len());
+    let w = window.start.min(n)..window.end.min(n);
     let real = channels(&run.zmp);
     let ideal = channels(&run.zmp_plan);
     let mut m = RunMetrics {
@@ -88,23 +102,32 @@ pub fn metrics(run: &Run, dt: f64) -> RunMetrics {
     for c in 0..3 {
         let (rv, iv) = (derivative(&real[c], dt), derivative(&ideal[c], dt));
         let (ra, ia) = (derivative(&rv, dt), derivative(&iv, dt));
-        m.corr_pos[c] = correlation(&ideal[c], &real[c]);
-        m.corr_vel[c] = correlation(&iv, &rv);
-        m.rms_pos[c] = rms_diff(&real[c], &ideal[c]);
-        m.rms_vel[c] = rms_diff(&rv, &iv);
-        m.rms_acc[c] = rms_diff(&ra, &ia);
+        let (rp, ip) = (&real[c][w.clone()], &ideal[c][w.clone()]);
+        let (rv, iv, ra, ia) = (
+            &rv[w.clone()],
+            &iv[w.clone()],
+            &ra[w.clone()],
+            &ia[w.clone()],
+        );
+        m.corr_pos[c] = correlation(ip, rp);
+        m.corr_vel[c] = correlation(iv, rv);
+        m.rms_pos[c] = rms_diff(rp, ip);
+        m.rms_vel[c] = rms_diff(rv, iv);
+        m.rms_acc[c] = rms_diff(ra, ia);
     }
     for c in 0..2 {
-        m.bias[c] = mean_diff(&real[c], &ideal[c]);
+        m.bias[c] = mean_diff(&real[c][w.clone()], &ideal[c][w.clone()]);
     }
+    let nr = run.roll.len().min(run.roll_plan.len());
+    let wr = w.start.min(nr)..w.end.min(nr);
     for j in 0..4 {
         let r: Vec<f64> = run.roll.iter().map(|v| v[j].to_degrees()).collect();
         let p: Vec<f64> = run.roll_plan.iter().map(|v| v[j].to_degrees()).collect();
         let (rv, pv) = (derivative(&r, dt), derivative(&p, dt));
         let (ra, pa) = (derivative(&rv, dt), derivative(&pv, dt));
-        m.roll_pos[j] = rms_diff(&r, &p);
-        m.roll_vel[j] = rms_diff(&rv, &pv);
-        m.roll_acc[j] = rms_diff(&ra, &pa);
+        m.roll_pos[j] = rms_diff(&r[wr.clone()], &p[wr.clone()]);
+        m.roll_vel[j] = rms_diff(&rv[wr.clone()], &pv[wr.clone()]);
+        m.roll_acc[j] = rms_diff(&ra[wr.clone()], &pa[wr.clone()]);
     }
     m
 }

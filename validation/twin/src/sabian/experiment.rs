@@ -1,14 +1,16 @@
 //! The whole second-seed experiment on the twin: calibrate the CoM (the seed's design and ours,
 //! repeated over noise draws), build the virtual models n, r, s, v (and e), plan and walk each
-//! several times, and collect the seed's tables.
+//! several times open loop and with the seed's Torso Position Control, and collect the seed's
+//! tables and the control's effort.
 
 use super::calibrate::*;
-use super::compare::{mean, metrics, RunMetrics};
+use super::compare::{mean, metrics, metrics_over, RunMetrics};
 use super::robot::{PointMass, Sabian, Variant};
+use super::tpc::TorsoMap;
 use super::walk::{execute, plan, Perturbation, Plan, Run, VirtualModel};
 use crate::mj::TwinError;
 use zmp_models::com::{Mat3, Vec3};
-use zmp_models::walking::Gait;
+use zmp_models::walking::{Effort, Gait, TorsoParams};
 
 /// What to run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -109,6 +111,14 @@ pub struct CalibrationOutcome {
     pub seed: DesignOutcome,
     /// The seed's design with perfectly zeroed sensors (what the offsets cost it).
     pub seed_zeroed: DesignOutcome,
+    /// The seed's eq. 7 (`M_2` from simulated motor currents, both signs) with zeroed sensors:
+    /// what feeding the internal joint moments in costs (ours passes `M_2 = 0`).
+    pub motors: MotorModel,
+    /// The seed's `M_2` (roll, pitch, yaw sums of the servos' torques, N m) in its two
+    /// postures, without current noise.
+    pub seed_m2_nm: [[f64; 3]; 2],
+    pub seed_eq7_plus: DesignOutcome,
+    pub seed_eq7_minus: DesignOutcome,
     pub designed: DesignOutcome,
     pub designed_condition_number: f64,
     /// The first draw of our design: estimated error mass (kg), its position in the trunk frame
@@ -139,9 +149,13 @@ pub fn calibrate(opt: &Options) -> Result<CalibrationOutcome, TwinError> {
         message: e.to_string(),
     };
     let mut r = rng(opt.seed);
+    // The eq. 7 variant's current noise: its own generator, so the other draws stay as they are.
+    let mut current_rng = rng(opt.seed ^ 0xe97);
+    let motors = MotorModel::twin();
     let mut ours = Vec::new();
     let mut seed = Vec::new();
     let mut zeroed = Vec::new();
+    let (mut eq7_plus, mut eq7_minus) = (Vec::new(), Vec::new());
     let mut first = None;
     for _ in 0..opt.draws {
         let offsets = draw_offsets(&noise, &mut r);
@@ -152,10 +166,20 @@ pub fn calibrate(opt: &Options) -> Result<CalibrationOutcome, TwinError> {
             first = Some((res, est));
         }
         ours.push(res);
-        let (a, b) = seed_calibration(&[seed_held[0], seed_held[1]], sol, &offsets, &noise, &mut r)
-            .map_err(err)?;
-        seed.push(a);
-        zeroed.push(b);
+        let sc = seed_calibration(
+            &[seed_held[0], seed_held[1]],
+            sol,
+            &offsets,
+            &noise,
+            &mut r,
+            &motors,
+            &mut current_rng,
+        )
+        .map_err(err)?;
+        seed.push(sc.with_offsets);
+        zeroed.push(sc.zeroed);
+        eq7_plus.push(sc.eq7_plus);
+        eq7_minus.push(sc.eq7_minus);
     }
     let (res0, est0) = first.ok_or_else(|| TwinError::Model {
         path: "calibration".into(),
@@ -173,6 +197,26 @@ pub fn calibrate(opt: &Options) -> Result<CalibrationOutcome, TwinError> {
         true_error_mass_position: TRUE_ERROR_MASS.position.into(),
         seed: summarise("seed: upright + 1 deg", labels(&seed_design()), seed),
         seed_zeroed: summarise("seed, sensors zeroed", labels(&seed_design()), zeroed),
+        motors,
+        seed_m2_nm: [0, 1].map(|k| {
+            let exact = MotorModel {
+                current_std_a: 0.0,
+                ..motors
+            };
+            exact
+                .m2(&seed_held[k], &mut rng(0))
+                .map_or([f64::NAN; 3], |m| m.into())
+        }),
+        seed_eq7_plus: summarise(
+            "seed, sensors zeroed, eq. 7: M_2 = +sum K I",
+            labels(&seed_design()),
+            eq7_plus,
+        ),
+        seed_eq7_minus: summarise(
+            "seed, sensors zeroed, eq. 7: M_2 = -sum K I",
+            labels(&seed_design()),
+            eq7_minus,
+        ),
         designed: summarise("ours: D-optimal", labels(&specs), ours),
         designed_condition_number: cond,
         estimated_error_mass_kg: m_e,
@@ -227,6 +271,68 @@ pub fn virtual_models(cal: &CalibrationOutcome) -> Vec<VirtualModel> {
     ]
 }
 
+/// One model's walks under one control (open loop or with Torso Position Control).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Walks {
+    /// Mean over the runs that did not fall, over the seed's 512 phases and over the 256
+    /// phases of the motion.
+    pub mean: RunMetrics,
+    pub mean_motion: RunMetrics,
+    pub runs: Vec<RunMetrics>,
+    pub falls: usize,
+    /// Runs that ended standing at the gait's end ([`Run::finished_standing`]).
+    pub finished_standing: usize,
+    /// Smallest over runs of the largest sole height reached (m): the feet lift.
+    pub min_clearance_m: f64,
+    /// Simulated time over wall time, mean over runs (one thread per run).
+    pub real_time_factor: f64,
+    /// With Torso Position Control: the mean effort over the runs, and each run's.
+    pub effort: Option<Effort>,
+    pub efforts: Vec<Effort>,
+    #[serde(skip)]
+    pub traces: Vec<Run>,
+}
+
+/// The seed's moving phases: after the 128 still ones, 256.
+pub fn motion_phases(gait: &Gait) -> std::ops::Range<usize> {
+    let a = gait.still_phases;
+    a..a + gait.phases_per_step * gait.strides_m.len()
+}
+
+fn walks(runs: Vec<Run>, gait: &Gait) -> Walks {
+    let end_x = gait.strides_m.iter().sum::<f64>() / 2.0;
+    let ok: Vec<&Run> = runs.iter().filter(|r| !r.fell).collect();
+    let ms: Vec<RunMetrics> = ok.iter().map(|r| metrics(r, gait.phase_s)).collect();
+    let motion: Vec<RunMetrics> = ok
+        .iter()
+        .map(|r| metrics_over(r, gait.phase_s, motion_phases(gait)))
+        .collect();
+    let efforts: Vec<Effort> = runs.iter().filter_map(|r| r.effort).collect();
+    Walks {
+        mean: if ms.is_empty() {
+            metrics(&runs[0], gait.phase_s)
+        } else {
+            mean(&ms)
+        },
+        mean_motion: if motion.is_empty() {
+            metrics_over(&runs[0], gait.phase_s, motion_phases(gait))
+        } else {
+            mean(&motion)
+        },
+        runs: ms,
+        falls: runs.len() - ok.len(),
+        finished_standing: runs.iter().filter(|r| r.finished_standing(end_x)).count(),
+        min_clearance_m: runs
+            .iter()
+            .map(|r| r.max_clearance_m)
+            .fold(f64::INFINITY, f64::min),
+        real_time_factor: runs.iter().map(|r| r.sim_s / r.wall_s).sum::<f64>() / runs.len() as f64,
+        effort: (!efforts.is_empty()).then(|| Effort::mean(&efforts)),
+        efforts,
+        traces: runs,
+    }
+}
+
 /// One model's walking.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct ModelOutcome {
@@ -236,20 +342,33 @@ pub struct ModelOutcome {
     pub error_mass_position: Option<[f64; 3]>,
     pub error_mass_kg: f64,
     pub com_height_m: f64,
-    pub mean: RunMetrics,
-    pub runs: Vec<RunMetrics>,
-    pub falls: usize,
-    /// Smallest over runs of the largest sole height reached (m): the feet lift.
-    pub min_clearance_m: f64,
-    /// Simulated time over wall time, mean over runs (one thread per run).
-    pub real_time_factor: f64,
-    #[serde(skip)]
-    pub traces: Vec<Run>,
+    /// The model's CoM minus the real robot's at the plan's first posture (m): what the model
+    /// gets wrong.
+    pub com_error_m: [f64; 3],
+    /// The real robot's CoM shift per unit torso shift there (x, y), for the check of the
+    /// control's steady state.
+    pub real_com_per_shift: [f64; 2],
+    /// The Torso Position Control's gains for this model's plan (none if no run was made).
+    pub tpc: Option<TorsoParams>,
+    pub open_loop: Walks,
+    pub with_tpc: Walks,
     #[serde(skip)]
     pub plan: Option<Plan>,
 }
 
-/// Plans with each model and walks `runs` times on the twin with the true masses.
+/// The model's CoM error and the real robot's CoM shift per torso shift at the plan's start.
+fn model_against_real(plan: &Plan, real: &Variant) -> Result<([f64; 3], [f64; 2]), TwinError> {
+    let mut r = Sabian::load(real, "real")?;
+    let map = TorsoMap::of(&mut r, &plan.qpos[..1])?;
+    r.data.qpos_mut().copy_from_slice(&plan.qpos[0]);
+    r.kinematics();
+    let real_com = r.com();
+    let model_com = plan.com_at_start;
+    Ok(((model_com - real_com).into(), map.com_per_shift))
+}
+
+/// Plans with each model and walks `runs` times on the twin with the true masses, open loop and
+/// with Torso Position Control (the same perturbations for both and for every model).
 pub fn walk_models(
     models: &[VirtualModel],
     opt: &Options,
@@ -261,49 +380,44 @@ pub fn walk_models(
     };
     let plans =
         zmp_campaign::par::try_parallel_map(models.len(), opt.threads, |k| plan(&models[k], gait))?;
-    let jobs: Vec<(usize, usize)> = (0..models.len())
-        .flat_map(|m| (0..opt.runs).map(move |r| (m, r)))
+    let jobs: Vec<(usize, usize, bool)> = (0..models.len())
+        .flat_map(|m| {
+            (0..opt.runs).flat_map(move |r| [false, true].into_iter().map(move |t| (m, r, t)))
+        })
         .collect();
     let runs = zmp_campaign::par::try_parallel_map(jobs.len(), opt.threads, |j| {
-        let (m, r) = jobs[j];
-        // The same perturbations for every model: run r of each model meets the same robot.
+        let (m, r, tpc) = jobs[j];
+        // Run r of each model meets the same robot.
         execute(
             &plans[m],
             &real,
             gait,
             &Perturbation::draw(opt.seed + r as u64),
+            tpc,
         )
     })?;
     let mut out = Vec::new();
     for (m, model) in models.iter().enumerate() {
-        let mine: Vec<Run> = jobs
-            .iter()
-            .zip(&runs)
-            .filter(|((mm, _), _)| *mm == m)
-            .map(|(_, r)| r.clone())
-            .collect();
-        let ok: Vec<&Run> = mine.iter().filter(|r| !r.fell).collect();
-        let ms: Vec<RunMetrics> = ok.iter().map(|r| metrics(r, gait.phase_s)).collect();
+        let pick = |tpc: bool| -> Vec<Run> {
+            jobs.iter()
+                .zip(&runs)
+                .filter(|((mm, _, t), _)| *mm == m && *t == tpc)
+                .map(|(_, r)| r.clone())
+                .collect()
+        };
+        let (com_error_m, real_com_per_shift) = model_against_real(&plans[m], &real)?;
+        let with_tpc = pick(true);
         out.push(ModelOutcome {
+            tpc: with_tpc.first().and_then(|r| r.tpc),
             name: model.name.clone(),
             description: model.description.clone(),
             error_mass_position: model.error_mass.map(|p| p.position.into()),
             error_mass_kg: model.error_mass.map_or(0.0, |p| p.mass_kg),
             com_height_m: plans[m].com_height_m,
-            mean: if ms.is_empty() {
-                metrics(&mine[0], gait.phase_s)
-            } else {
-                mean(&ms)
-            },
-            runs: ms,
-            falls: mine.len() - ok.len(),
-            min_clearance_m: mine
-                .iter()
-                .map(|r| r.max_clearance_m)
-                .fold(f64::INFINITY, f64::min),
-            real_time_factor: mine.iter().map(|r| r.sim_s / r.wall_s).sum::<f64>()
-                / mine.len() as f64,
-            traces: mine,
+            com_error_m,
+            real_com_per_shift,
+            open_loop: walks(pick(false), gait),
+            with_tpc: walks(with_tpc, gait),
             plan: Some(plans[m].clone()),
         });
     }

@@ -1,5 +1,6 @@
 //! The calibration and walking report's SVG figures: the error ellipses of each calibration
-//! design and the seed's figures 5-8 (planned and measured ZMP of each virtual model).
+//! design, the seed's figures 5-8 (planned and measured ZMP of each virtual model, walking with
+//! Torso Position Control as the seed did) and the control's torso shift per model.
 
 use super::experiment::{DesignOutcome, ModelOutcome};
 use super::report::Outcome;
@@ -48,7 +49,7 @@ pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {
         let (ideal, real) = mean_traces(m);
         let n = ideal.len();
         panels.push(TimePanel {
-            title: format!("model {}: ZMP y", m.name),
+            title: format!("model {}: ZMP y (with TPC)", m.name),
             y_label: "ZMP y (m)".into(),
             series: vec![
                 TimeSeries {
@@ -83,7 +84,7 @@ pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {
     for (k, m) in pick.iter().enumerate() {
         let (ideal, real) = mean_traces(m);
         xy.push(TimePanel {
-            title: format!("model {}: ZMP in the XY plane", m.name),
+            title: format!("model {}: ZMP in the XY plane (with TPC)", m.name),
             y_label: "y (m)".into(),
             x_label: Some("x (m)".into()),
             series: vec![
@@ -123,7 +124,7 @@ pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {
     time_svg(
         &p,
         &[TimePanel {
-            title: "distance between ideal and real ZMP".into(),
+            title: "distance between ideal and real ZMP (with TPC)".into(),
             y_label: "|error| (m)".into(),
             series: err,
             ..Default::default()
@@ -159,7 +160,7 @@ pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {
     time_svg(
         &p,
         &[TimePanel {
-            title: "ZMP around a foot-ground contact (third step)".into(),
+            title: "ZMP around a foot-ground contact (third step, with TPC)".into(),
             y_label: "y (m)".into(),
             x_label: Some("x (m)".into()),
             series,
@@ -168,7 +169,49 @@ pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {
         force,
     )?;
     files.push(p);
+    files.push(torso_shift(o, dir, force)?);
     Ok(files)
+}
+
+/// The Torso Position Control's shift per model (mean of the runs), x and y.
+fn torso_shift(o: &Outcome, dir: &Path, force: bool) -> Result<PathBuf> {
+    let mut panels = Vec::new();
+    for m in &o.walking {
+        let runs: Vec<_> = m.with_tpc.traces.iter().filter(|r| !r.fell).collect();
+        let n = runs.iter().map(|r| r.torso_shift.len()).min().unwrap_or(0);
+        let avg = |c: usize| -> Vec<f64> {
+            (0..n)
+                .map(|k| {
+                    runs.iter().map(|r| r.torso_shift[k][c]).sum::<f64>() * 1e3 / runs.len() as f64
+                })
+                .collect()
+        };
+        let t: Vec<f64> = (1..=n).map(|k| k as f64 * 0.03).collect();
+        panels.push(TimePanel {
+            title: format!("model {}: torso shift of the TPC", m.name),
+            y_label: "shift (mm)".into(),
+            series: vec![
+                TimeSeries {
+                    label: "x".into(),
+                    t: t.clone(),
+                    y: avg(0),
+                    color: PALETTE[0],
+                    style: Style::Line,
+                },
+                TimeSeries {
+                    label: "y".into(),
+                    t,
+                    y: avg(1),
+                    color: PALETTE[1],
+                    style: Style::Line,
+                },
+            ],
+            ..Default::default()
+        });
+    }
+    let p = dir.join("walk-torso-shift.svg");
+    time_svg(&p, &panels, force)?;
+    Ok(p)
 }
 
 fn mean_covariance(d: &DesignOutcome) -> [[f64; 3]; 3] {
@@ -209,9 +252,9 @@ fn ellipse(
 
 /// The mean over runs (that did not fall) of the ideal and real ZMP traces.
 fn mean_traces(m: &ModelOutcome) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
-    let ok: Vec<_> = m.traces.iter().filter(|r| !r.fell).collect();
+    let ok: Vec<_> = m.with_tpc.traces.iter().filter(|r| !r.fell).collect();
     let runs = if ok.is_empty() {
-        m.traces.iter().collect()
+        m.with_tpc.traces.iter().collect()
     } else {
         ok
     };

@@ -4,7 +4,7 @@
 use crate::mj::{load_mjcf_str, TwinError};
 use mujoco_rs::prelude::*;
 use std::path::{Path, PathBuf};
-use zmp_models::com::{Mat3, Vec3, Wrench};
+use zmp_models::com::{JointAxis, Mat3, Vec3, Wrench};
 
 /// The leg joints in chain order; index [`SHANK_YAW`] is SABIAN's seventh (redundant) leg joint,
 /// held at zero.
@@ -19,6 +19,8 @@ pub const LEG_JOINTS: [&str; 7] = [
 ];
 /// Index of the shank yaw joint in [`LEG_JOINTS`].
 pub const SHANK_YAW: usize = 4;
+/// The servoed joints (legs 7 x 2, waist 2).
+pub const MOTORS: usize = 16;
 /// Feet, in the order the CoM code uses (left, right).
 pub const SIDES: [&str; 2] = ["l", "r"];
 /// The error mass's marker in the MJCF's trunk body.
@@ -88,6 +90,9 @@ pub struct Indices {
     pub waist_qpos: [usize; 2],
     /// (actuator, qpos address of its joint).
     pub servo: Vec<(usize, usize)>,
+    /// The axis of each actuator's joint, for the seed's eq. 7 sums (roll, pitch or yaw, from
+    /// the joint's name: the knee is a pitch joint).
+    pub servo_axis: Vec<JointAxis>,
     pub pelvis: usize,
     pub trunk: usize,
     pub soles: [usize; 2],
@@ -127,9 +132,24 @@ impl Indices {
         }
         let waist_qpos = [jq("waist_yaw")?.0, jq("waist_roll")?.0];
         let mut servo = Vec::new();
+        let mut servo_axis = Vec::new();
         for a in 0..model.ffi().nu as usize {
             let j = model.actuator_trnid()[a][0] as usize;
             servo.push((a, model.jnt_qposadr()[j] as usize));
+            let name = model.id_to_name(MjtObjBase::mjOBJ_JOINT, j).unwrap_or("");
+            servo_axis.push(if name.ends_with("roll") {
+                JointAxis::Roll
+            } else if name.ends_with("yaw") {
+                JointAxis::Yaw
+            } else {
+                JointAxis::Pitch
+            });
+        }
+        if servo.len() != MOTORS {
+            return Err(TwinError::Model {
+                path: "sabian.xml".into(),
+                message: format!("{} servos, the twin has {MOTORS}", servo.len()),
+            });
         }
         let sensor = |n: &str| -> Result<usize, TwinError> {
             let s = id(model, MjtObjBase::mjOBJ_SENSOR, n)?;
@@ -140,6 +160,7 @@ impl Indices {
             leg_dof,
             waist_qpos,
             servo,
+            servo_axis,
             pelvis: id(model, MjtObjBase::mjOBJ_BODY, "pelvis")?,
             trunk: id(model, MjtObjBase::mjOBJ_BODY, "trunk")?,
             soles: [
@@ -265,6 +286,12 @@ impl Sabian {
             -Vec3::new(d[f], d[f + 1], d[f + 2]),
             -Vec3::new(d[t], d[t + 1], d[t + 2]),
         )
+    }
+
+    /// Each servo's torque on its joint (N m): what its motor current gives through eq. 7.
+    pub fn motor_torques(&self) -> [f64; MOTORS] {
+        let f = self.data.actuator_force();
+        std::array::from_fn(|k| f[self.idx.servo[k].0])
     }
 
     /// Sets every servo's target to the joint's current position.

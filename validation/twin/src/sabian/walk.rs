@@ -1,16 +1,20 @@
 //! The second seed's walking comparison on the twin: a pattern planned from a virtual model
 //! (n, r, s, v: where the error mass is put) by ZMP preview control and whole-body IK, then
 //! executed by the servos of the twin with the true masses, the ZMP measured by the two ankle
-//! force/torque sensors.
+//! force/torque sensors; open loop, or corrected online by the seed's Torso Position Control
+//! ([`zmp_models::walking::torso`], applied through [`TorsoMap`]).
 
 use super::calibrate::{FOOT_SPACING, SOLE_CENTRE_X};
 use super::ik::{solve, IkTarget};
 use super::robot::{mat3, vec3, PointMass, Sabian, Variant};
+use super::tpc::TorsoMap;
 use crate::mj::TwinError;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use zmp_models::com::{Mat3, Vec3, Wrench};
-use zmp_models::walking::{Gait, PreviewController, PreviewParams};
+use zmp_models::walking::{
+    Effort, EffortMeter, Gait, PreviewController, PreviewParams, TorsoControl, TorsoParams,
+};
 
 /// Pelvis height while walking (m).
 pub const WALK_PELVIS_HEIGHT: f64 = 0.60;
@@ -40,6 +44,26 @@ pub struct Plan {
     /// The planned CoM (m).
     pub com: Vec<[f64; 2]>,
     pub com_height_m: f64,
+    /// The planning model's CoM at the first sample (m).
+    pub com_at_start: Vec3,
+    /// How a torso shift moves the joints, per sample (the planning model's kinematics).
+    pub torso: TorsoMap,
+}
+
+impl Plan {
+    /// The plan's ZMP at time `t` (s), linear between samples (m).
+    pub fn zmp_at(&self, t: f64) -> [f64; 2] {
+        let kp = (t / PLAN_STEP).max(0.0);
+        let i = (kp.floor() as usize).min(self.zmp.len() - 2);
+        let w = (kp - i as f64).min(1.0);
+        std::array::from_fn(|c| self.zmp[i][c] * (1.0 - w) + self.zmp[i + 1][c] * w)
+    }
+
+    /// The Torso Position Control's gains for this plan (the planning model's CoM height and
+    /// CoM shift per torso shift) at the control period `step_s`.
+    pub fn tpc_params(&self, step_s: f64) -> TorsoParams {
+        TorsoParams::design(self.com_height_m, self.torso.com_per_shift, step_s)
+    }
 }
 
 /// Plans the seed's gait with a virtual model.
@@ -100,13 +124,19 @@ pub fn plan(model: &VirtualModel, gait: &Gait) -> Result<Plan, TwinError> {
             com[k][1] += cy[k][0];
         }
     }
+    robot.data.qpos_mut().copy_from_slice(&qpos[0]);
+    robot.kinematics();
+    let com_at_start = robot.com();
+    let torso = TorsoMap::of(&mut robot, &qpos)?;
     Ok(Plan {
+        com_at_start,
         model: model.name.clone(),
         qpos,
         zmp,
         zmp_ref,
         com,
         com_height_m,
+        torso,
     })
 }
 
@@ -184,6 +214,9 @@ pub struct Run {
     pub zmp: Vec<[f64; 2]>,
     /// The plan's ZMP at the same phases (m).
     pub zmp_plan: Vec<[f64; 2]>,
+    /// MuJoCo's whole-robot CoM, x and y, at each phase's end (m): the truth the sensors do not
+    /// give.
+    pub com: Vec<[f64; 2]>,
     /// Roll joints (rad), measured and planned: left ankle, left hip, right ankle, right hip.
     pub roll: Vec<[f64; 4]>,
     pub roll_plan: Vec<[f64; 4]>,
@@ -191,9 +224,55 @@ pub struct Run {
     pub max_clearance_m: f64,
     /// Where the pelvis ended (m).
     pub final_pelvis: [f64; 2],
+    /// Pelvis height (m) and its tilt from the vertical (deg) at the end.
+    pub final_pelvis_height_m: f64,
+    pub final_tilt_deg: f64,
+    /// Height of each sole's bottom centre at the end (m).
+    pub final_sole_heights_m: [f64; 2],
+    /// With Torso Position Control: its gains, its torso shift at each phase's end (m) and its
+    /// effort.
+    pub tpc: Option<TorsoParams>,
+    pub torso_shift: Vec<[f64; 2]>,
+    pub effort: Option<Effort>,
     /// Wall time of the simulation (s) and simulated time (s).
     pub wall_s: f64,
     pub sim_s: f64,
+}
+
+impl Run {
+    fn new(model: &str, phases: usize) -> Run {
+        Run {
+            model: model.to_string(),
+            fell: false,
+            fall_time_s: None,
+            zmp: Vec::with_capacity(phases),
+            zmp_plan: Vec::with_capacity(phases),
+            com: Vec::with_capacity(phases),
+            roll: Vec::with_capacity(phases),
+            roll_plan: Vec::with_capacity(phases),
+            max_clearance_m: 0.0,
+            final_pelvis: [0.0; 2],
+            final_pelvis_height_m: 0.0,
+            final_tilt_deg: 0.0,
+            final_sole_heights_m: [0.0; 2],
+            tpc: None,
+            torso_shift: Vec::new(),
+            effort: None,
+            wall_s: 0.0,
+            sim_s: 0.0,
+        }
+    }
+
+    /// The run ended standing where the gait ends: no fall, the pelvis within 3 cm of its
+    /// walking height and tilted less than 5 degrees, both soles on the floor (within 5 mm) and
+    /// the pelvis within 10 cm of `end_x` along x.
+    pub fn finished_standing(&self, end_x: f64) -> bool {
+        !self.fell
+            && (self.final_pelvis_height_m - WALK_PELVIS_HEIGHT).abs() < 0.03
+            && self.final_tilt_deg < 5.0
+            && self.final_sole_heights_m.iter().all(|z| z.abs() < 0.005)
+            && (self.final_pelvis[0] - end_x).abs() < 0.1
+    }
 }
 
 /// The ZMP measured by the two ankle sensors (the seed's way): each sensor's wrench, corrected
@@ -220,12 +299,15 @@ pub fn measured_zmp(robot: &Sabian, noise: &mut impl FnMut() -> Wrench) -> Optio
     (f.z > 10.0).then(|| [-m.y / f.z, m.x / f.z])
 }
 
-/// Executes a plan on the real twin (`real`: the CAD model with the true masses).
+/// Executes a plan on the real twin (`real`: the CAD model with the true masses), open loop or
+/// with Torso Position Control (`tpc`; the gains of [`Plan::tpc_params`]), updated every physics
+/// step from the measured ZMP.
 pub fn execute(
     plan: &Plan,
     real: &Variant,
     gait: &Gait,
     pert: &Perturbation,
+    tpc: bool,
 ) -> Result<Run, TwinError> {
     let variant = Variant {
         friction_scale: Some(pert.friction_scale),
@@ -250,40 +332,20 @@ pub fn execute(
         robot.idx.leg_qpos[1][1],
     ];
     let soles = robot.idx.sole_bottom_site;
-    let mut rng = ChaCha8Rng::seed_from_u64(pert.seed ^ 0x5ab1a);
-    let mut normal = move || {
-        let u1: f64 = rng.gen_range(f64::EPSILON..1.0);
-        let u2: f64 = rng.gen();
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    let mut noise = sensor_noise(pert);
+    let mut torso = if tpc {
+        Some(Torso::new(plan.tpc_params(dt), plan, &servo)?)
+    } else {
+        None
     };
-    let mut noise = || {
-        Wrench::from_array(std::array::from_fn(|k| {
-            if k < 3 {
-                pert.force_noise_n * normal()
-            } else {
-                pert.moment_noise_nm * normal()
-            }
-        }))
-    };
-    let mut run = Run {
-        model: plan.model.clone(),
-        fell: false,
-        fall_time_s: None,
-        zmp: Vec::with_capacity(phases),
-        zmp_plan: Vec::with_capacity(phases),
-        roll: Vec::with_capacity(phases),
-        roll_plan: Vec::with_capacity(phases),
-        max_clearance_m: 0.0,
-        final_pelvis: [0.0; 2],
-        wall_s: 0.0,
-        sim_s: 0.0,
-    };
+    let mut run = Run::new(&plan.model, phases);
+    run.tpc = torso.as_ref().map(|t| t.control.params);
     let started = std::time::Instant::now();
     let total_steps = phases * per_phase;
     let mut acc = [0.0; 2];
     let mut acc_n = 0usize;
     for step in 0..total_steps {
-        // Servo targets: linear between the plan's samples.
+        // Servo targets: linear between the plan's samples, plus the torso correction.
         let k = step / per_plan;
         let a = (step % per_plan) as f64 / per_plan as f64;
         let q_a = &plan.qpos[k.min(plan.qpos.len() - 1)];
@@ -293,12 +355,19 @@ pub fn execute(
             for &(act, adr) in &servo {
                 ctrl[act] = q_a[adr] + (q_b[adr] - q_a[adr]) * a;
             }
+            if let Some(t) = &torso {
+                t.correct(&plan.torso, k, a, ctrl);
+            }
         }
         robot.data.step();
-        if let Some(z) = measured_zmp(&robot, &mut noise) {
+        let zmp = measured_zmp(&robot, &mut noise);
+        if let Some(z) = zmp {
             acc[0] += z[0];
             acc[1] += z[1];
             acc_n += 1;
+        }
+        if let Some(t) = &mut torso {
+            t.update(plan.zmp_at((step + 1) as f64 * dt), zmp);
         }
         for &s in &soles {
             let z = robot.data.site_xpos()[s][2];
@@ -317,22 +386,96 @@ pub fn execute(
             acc = [0.0; 2];
             acc_n = 0;
             // The plan at the phase's middle, to match the phase mean.
-            let tm = t - gait.phase_s / 2.0;
-            let kp = tm / PLAN_STEP;
-            let i = (kp.floor() as usize).min(plan.zmp.len() - 2);
-            let w = kp - i as f64;
-            run.zmp_plan.push(std::array::from_fn(|c| {
-                plan.zmp[i][c] * (1.0 - w) + plan.zmp[i + 1][c] * w
-            }));
+            run.zmp_plan.push(plan.zmp_at(t - gait.phase_s / 2.0));
+            let c = robot.com();
+            run.com.push([c.x, c.y]);
             run.roll.push(roll_q.map(|adr| qpos[adr]));
             let kq = ((t / PLAN_STEP).round() as usize).min(plan.qpos.len() - 1);
             run.roll_plan.push(roll_q.map(|adr| plan.qpos[kq][adr]));
+            if let Some(tc) = &torso {
+                run.torso_shift.push(tc.control.shift());
+            }
         }
     }
     run.wall_s = started.elapsed().as_secs_f64();
-    run.final_pelvis = [robot.data.qpos()[0], robot.data.qpos()[1]];
+    let q = robot.data.qpos();
+    run.final_pelvis = [q[0], q[1]];
+    run.final_pelvis_height_m = q[2];
+    // The pelvis's z axis against the vertical: cos(tilt) = 1 - 2 (qx^2 + qy^2).
+    run.final_tilt_deg = (1.0 - 2.0 * (q[4] * q[4] + q[5] * q[5]))
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees();
+    run.final_sole_heights_m = soles.map(|s| robot.data.site_xpos()[s][2]);
+    run.effort = torso.map(|t| t.meter.effort());
     run.sim_s = robot.data.time();
     Ok(run)
+}
+
+/// The sensors' white noise of a run (its own generator, so the draws do not depend on the
+/// control).
+fn sensor_noise(pert: &Perturbation) -> impl FnMut() -> Wrench + '_ {
+    let mut rng = ChaCha8Rng::seed_from_u64(pert.seed ^ 0x5ab1a);
+    let mut normal = move || {
+        let u1: f64 = rng.gen_range(f64::EPSILON..1.0);
+        let u2: f64 = rng.gen();
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    };
+    move || {
+        Wrench::from_array(std::array::from_fn(|k| {
+            if k < 3 {
+                pert.force_noise_n * normal()
+            } else {
+                pert.moment_noise_nm * normal()
+            }
+        }))
+    }
+}
+
+/// The Torso Position Control of a run: the law, its effort meter and which actuator drives
+/// each joint of the plan's [`TorsoMap`].
+struct Torso {
+    control: TorsoControl,
+    meter: EffortMeter,
+    actuator: Vec<usize>,
+}
+
+impl Torso {
+    fn new(p: TorsoParams, plan: &Plan, servo: &[(usize, usize)]) -> Result<Torso, TwinError> {
+        let actuator = plan
+            .torso
+            .qpos
+            .iter()
+            .map(|q| {
+                servo
+                    .iter()
+                    .find(|(_, adr)| adr == q)
+                    .map(|(a, _)| *a)
+                    .ok_or_else(|| TwinError::Model {
+                        path: "sabian.xml".into(),
+                        message: format!("the joint at qpos {q} has no servo"),
+                    })
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(Torso {
+            control: TorsoControl::new(p),
+            meter: EffortMeter::new(p.step_s),
+            actuator,
+        })
+    }
+
+    fn correct(&self, map: &TorsoMap, k: usize, a: f64, ctrl: &mut [f64]) {
+        let mut d = [0.0; 12];
+        map.apply(k, a, self.control.shift(), &mut d);
+        for (i, &act) in self.actuator.iter().enumerate() {
+            ctrl[act] += d[i];
+        }
+    }
+
+    fn update(&mut self, zmp_ref: [f64; 2], zmp: Option<[f64; 2]>) {
+        let d = self.control.update(zmp_ref, zmp);
+        self.meter.push(d, self.control.saturated());
+    }
 }
 
 /// The pose of the trunk in the CAD model's standing posture (for placing error masses).

@@ -44,6 +44,20 @@ pub struct TwinDesign {
     /// ramp the references).
     pub settle_s: f64,
     pub sensor: ZmpSensorSpec,
+    /// Records above the main band with amplitudes of their own (at every operating point and
+    /// excited axis), after the main grid's.
+    #[serde(default)]
+    pub high_band: Option<Band>,
+}
+
+/// Extra frequencies with their own (smaller) amplitudes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Band {
+    /// rad/s.
+    pub omegas: Vec<f64>,
+    /// m.
+    pub amplitudes: Vec<f64>,
 }
 
 fn logspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
@@ -72,6 +86,29 @@ impl TwinDesign {
             min_steady_s: 6.0,
             settle_s: 2.0,
             sensor: ZmpSensorSpec::silo2(),
+            high_band: None,
+        }
+    }
+
+    /// [`TwinDesign::full`] extended to 50 rad/s (`validate silo2 --extended`): 8 more
+    /// frequencies from 14 to 50 rad/s at 0.1 and 0.2 mm of CoM (240 records). The twin's ZMP
+    /// swings `(a + b w^2) |H| S` times the CoM, with the servo's `|H|` and the stance factor
+    /// `S` (up to 3 near 40 rad/s, sagittal): about 200 at 40-50 rad/s, so 0.2 mm gives 40 mm,
+    /// inside the 110 mm half-length of the polygon at every operating point (a test checks
+    /// the most demanding records keep 40 mm from the edge), and 0.1 mm still about 2 mm at
+    /// 14 rad/s, several times the load cells' ZMP noise per sample (0.5 N per cell over the
+    /// 470 N weight at corners up to 0.16 m out: about 0.35 mm RMS), averaged over thousands
+    /// of samples by the fit. Nothing else limits the band: the servos have no force limit (a 0.2 mm sine at 50 rad/s needs
+    /// 8 N m), the feet stay flat (the ZMP inside the polygon), and 200 Hz samples a 50 rad/s
+    /// sine 25 times a period (1 ms physics steps: 125).
+    pub fn extended() -> TwinDesign {
+        TwinDesign {
+            name: "silo2-twin-extended".into(),
+            high_band: Some(Band {
+                omegas: logspace(14.0, 50.0, 8),
+                amplitudes: vec![0.0001, 0.0002],
+            }),
+            ..TwinDesign::full()
         }
     }
 
@@ -87,13 +124,23 @@ impl TwinDesign {
         }
     }
 
-    /// Record metadata in campaign order: operating point, amplitude, axis, frequency.
+    /// Record metadata in campaign order: operating point, amplitude, axis, frequency; then
+    /// the high band's in the same order.
     pub fn records(&self) -> Vec<RecordMeta> {
         let mut out = Vec::new();
+        let main = (&self.amplitudes, &self.omegas);
+        let high = self.high_band.as_ref().map(|b| (&b.amplitudes, &b.omegas));
+        for (amplitudes, omegas) in std::iter::once(main).chain(high) {
+            self.grid(amplitudes, omegas, &mut out);
+        }
+        out
+    }
+
+    fn grid(&self, amplitudes: &[f64], omegas: &[f64], out: &mut Vec<RecordMeta>) {
         for op in &self.operating_points {
-            for &amplitude in &self.amplitudes {
+            for &amplitude in amplitudes {
                 for &excited in &self.excited {
-                    for &omega in &self.omegas {
+                    for &omega in omegas {
                         let k = out.len();
                         out.push(RecordMeta {
                             file: PathBuf::from(format!("records/r{k:03}.csv")),
@@ -106,7 +153,6 @@ impl TwinDesign {
                 }
             }
         }
-        out
     }
 
     /// Physics steps per sample.
@@ -156,8 +202,21 @@ impl TwinDesign {
         if !(self.transient_s >= 0.0 && self.min_steady_s >= 0.0) {
             return Err("transient_s and min_steady_s must be >= 0".into());
         }
-        for (name, v) in [("amplitudes", &self.amplitudes), ("omegas", &self.omegas)] {
-            if v.is_empty() {
+        let empty = Vec::new();
+        let (band_amplitudes, band_omegas) = match &self.high_band {
+            Some(b) if b.amplitudes.is_empty() || b.omegas.is_empty() => {
+                return Err("high_band: amplitudes and omegas must not be empty".into())
+            }
+            Some(b) => (&b.amplitudes, &b.omegas),
+            None => (&empty, &empty),
+        };
+        for (name, v) in [
+            ("amplitudes", &self.amplitudes),
+            ("omegas", &self.omegas),
+            ("high_band.amplitudes", band_amplitudes),
+            ("high_band.omegas", band_omegas),
+        ] {
+            if v.is_empty() && !name.starts_with("high_band") {
                 return Err(format!("{name} is empty"));
             }
             for &x in v {
@@ -281,4 +340,45 @@ pub fn run_campaign(
         sample_rate_hz: Some(design.sample_rate_hz),
         records,
     })
+}
+
+/// The twin's first-harmonic response `ZMP_i / x_cr,i` on the excited axis at `omega`, from
+/// one noise-free record (no sensor noise or resolution, the campaign's settling) of CoM
+/// amplitude `amplitude` around the upright posture, over whole periods of the steady state.
+pub fn response(
+    twin: &Silo2,
+    props: &MassProperties,
+    axis: Axis,
+    omega: f64,
+    amplitude: f64,
+) -> Result<num_complex::Complex64, TwinError> {
+    use zmp_models::harmonic::first_harmonic;
+    let mut design = TwinDesign::short();
+    design.sensor = ZmpSensorSpec {
+        force_noise_std: 0.0,
+        quantisation: 0.0,
+        delay: 0.0,
+        seed: 0,
+    };
+    design.min_steady_s = 3.0;
+    design.periods = 10;
+    let meta = RecordMeta {
+        file: "response.csv".into(),
+        excited: axis,
+        omega,
+        amplitude,
+        operating_point: [props.com_upright[0], props.com_upright[1]],
+    };
+    let r = simulate_record(twin, props, &design, &meta, 0)?;
+    let dt = r.dt();
+    let per = 2.0 * std::f64::consts::PI / omega / dt;
+    let n0 = (design.transient_s / dt) as usize;
+    let n = (((r.len() - n0) as f64 / per).floor() * per).round() as usize;
+    let (z, u) = match axis {
+        Axis::X => (&r.zmp_x, &r.x_cr),
+        Axis::Y => (&r.zmp_y, &r.y_cr),
+    };
+    let zh = first_harmonic(&z[n0..n0 + n], omega, dt, r.t[n0]);
+    let uh = first_harmonic(&u[n0..n0 + n], omega, dt, r.t[n0]);
+    Ok(zh / uh)
 }

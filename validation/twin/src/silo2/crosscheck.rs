@@ -229,16 +229,7 @@ pub fn budget(
         let st = static_check(&soft, props, com_ref, 2.0, 0.5)?;
         let mut response = Vec::new();
         for &(axis, omega) in probes {
-            let (z, theta) = response_phasors(&soft, props, axis, omega, amplitude)?;
-            let ax = axis.index();
-            // Rigid robot: Z = (J_static - w^2 J_acc) Theta.
-            let mut zr = Complex64::new(0.0, 0.0);
-            for j in 0..2 {
-                zr += (upright.zmp_per_angle[ax][j]
-                    - omega * omega * upright.zmp_per_angular_acceleration[ax][j])
-                    * theta[j];
-            }
-            let r = z / zr;
+            let r = stance_factor_at(&soft, props, &upright, axis, omega, amplitude)?;
             response.push(ResponseError {
                 axis,
                 omega,
@@ -254,6 +245,42 @@ pub fn budget(
             response,
         })
     })
+}
+
+/// What the stance adds to the ZMP: the load-cell ZMP's first harmonic over the rigid-robot
+/// prediction from the measured trunk motion, `Z / ((J_static - w^2 J_acc) Theta)`, during a
+/// trunk sine of CoM amplitude `amplitude` (m) on `axis` at `omega` around the upright posture,
+/// without sensor noise. 1 on a rigid stance; the leg servos and the soft contacts let the
+/// whole robot sway, a resonance of the stance that this isolates from the trunk's servo.
+pub fn stance_factor(
+    twin: &Silo2,
+    props: &MassProperties,
+    axis: Axis,
+    omega: f64,
+    amplitude: f64,
+) -> Result<Complex64, TwinError> {
+    let upright = predict(twin, props, [props.com_upright[0], props.com_upright[1]])?;
+    stance_factor_at(twin, props, &upright, axis, omega, amplitude)
+}
+
+fn stance_factor_at(
+    twin: &Silo2,
+    props: &MassProperties,
+    upright: &super::props::OperatingPoint,
+    axis: Axis,
+    omega: f64,
+    amplitude: f64,
+) -> Result<Complex64, TwinError> {
+    let (z, theta) = response_phasors(twin, props, axis, omega, amplitude)?;
+    let ax = axis.index();
+    // Rigid robot: Z = (J_static - w^2 J_acc) Theta.
+    let mut zr = Complex64::new(0.0, 0.0);
+    for j in 0..2 {
+        zr += (upright.zmp_per_angle[ax][j]
+            - omega * omega * upright.zmp_per_angular_acceleration[ax][j])
+            * theta[j];
+    }
+    Ok(z / zr)
 }
 
 /// Noise-free first harmonics of the load-cell ZMP (excited axis) and of both trunk angles

@@ -9,13 +9,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 use zmp_identify::Identification;
 use zmp_models::closed_loop::{ClosedLoopTrace, StepExperiment};
+use zmp_report::html::{esc, STYLE};
 use zmp_report::plot::{time_svg, Style, TimePanel, TimeSeries, PALETTE};
-
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
 
 /// Seed figures 18-20 for the twin (measured ZMP, true ZMP) and the identified model.
 pub fn closed_loop_svg(
@@ -138,25 +133,33 @@ pub fn write_html(
     let title = "MuJoCo twin of SILO2: identification, closed loop, diagnosis";
     let _ = write!(
         h,
-        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{title}</title>\n<style>\
-         body{{font-family:sans-serif;max-width:1100px;margin:auto;}}\
-         table{{border-collapse:collapse;margin:8px 0;}}td,th{{border:1px solid #bbb;padding:3px 7px;\
-         text-align:right;}}th{{background:#eee;}}td.l{{text-align:left;}}img{{max-width:100%;}}\
-         .note{{color:#555;}}</style></head><body>\n<h1>{title}</h1>\n<p class=\"note\">Model \
-         <code>{}</code>; {} run; {:.0} s wall time. Everything here is computed by \
-         <code>cargo xtask validate silo2{}</code>; the numbers are in <code>summary.json</code>.\
-         </p>\n",
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{title}</title>{STYLE}\
+         </head><body>\n<h1>{title}</h1>\n<p class=\"note\">Model <code>{}</code>; {} run; \
+         {:.0} s wall time. Everything here is computed by <code>cargo xtask validate \
+         silo2{}</code>; the numbers are in <code>summary.json</code>.</p>\n",
         esc(&s.model_file),
-        if s.short { "short" } else { "full" },
+        if s.short {
+            "short"
+        } else if s.extended {
+            "extended"
+        } else {
+            "full"
+        },
         s.wall_s,
-        if s.short { " --short" } else { "" }
+        if s.short {
+            " --short"
+        } else if s.extended {
+            " --extended"
+        } else {
+            ""
+        }
     );
 
     // The twin.
     let m = &s.mass;
     let _ = write!(
         h,
-        "<h2>The twin</h2>\n<table><tr><th>quantity</th><th>value</th></tr>\
+        "<h2>The twin</h2>\n<table><tr><th class=l>quantity</th><th>value</th></tr>\
          <tr><td class=l>total mass m_r</td><td>{:.3} kg</td></tr>\
          <tr><td class=l>trunk mass m_t (m_t/m_r)</td><td>{:.3} kg ({:.1} %)</td></tr>\
          <tr><td class=l>trunk lever l_t (tilt axes to trunk CoM)</td><td>{:.3} m</td></tr>\
@@ -217,13 +220,13 @@ pub fn write_html(
          the load-cell ZMP over 3 periods. The momentum ZMP is Newton-Euler on the whole robot \
          (MuJoCo's subtree CoM, velocity and angular momentum, differentiated); the cart-table ZMP \
          <code>x - z/g x''</code> leaves out the trunk's rotation and underestimates the swing.</p>\n\
-         <table><tr><th>axis</th><th>RMS ZMP swing (mm)</th><th>cells - CoP (mm)</th>\
+         <table><tr><th class=l>axis</th><th>RMS ZMP swing (mm)</th><th>cells - CoP (mm)</th>\
          <th>cells - momentum ZMP (mm)</th><th>cells - cart-table (mm)</th><th>cart-table / cells amplitude</th></tr>\n",
     );
     for c in &s.dynamic {
         let _ = writeln!(
             h,
-            "<tr><td>{}</td><td>{:.3}</td><td>{:.2e}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td></tr>",
+            "<tr><td class=l>{}</td><td>{:.3}</td><td>{:.2e}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td></tr>",
             c.axis,
             c.rms_zmp * 1e3,
             c.rms_cells_minus_cop * 1e3,
@@ -287,14 +290,14 @@ pub fn write_html(
         s.reduced_chi2
     );
     h.push_str(
-        "<table><tr><th>parameter</th><th>seed eqs. 6-15 (point mass)</th><th>multibody (rigid)</th>\
+        "<table><tr><th class=l>parameter</th><th>seed eqs. 6-15 (point mass)</th><th>multibody (rigid)</th>\
          <th>multibody + servo gravity</th><th>identified &plusmn; s.e.</th><th>identified vs servo</th>\
          <th>after the diagnosis loop</th></tr>\n",
     );
     for p in &s.parameters {
         let _ = write!(
             h,
-            "<tr><td class=l>{}</td>{}{}{}<td>{:.5} &plusmn; {:.5}</td>{}",
+            "<tr><td class=l>{}</td>{}{}{}<td class=nw>{:.5} &plusmn; {:.5}</td>{}",
             p.name,
             td(p.seed, 5),
             td(p.multibody, 5),
@@ -402,6 +405,7 @@ pub fn write_html(
         );
     }
     h.push_str("</ul>\n");
+    stance_section(&mut h, s);
 
     // Frames.
     h.push_str("<h2>The robot during the disturbance experiment</h2>\n");
@@ -419,4 +423,52 @@ pub fn write_html(
     }
     h.push_str("</body></html>\n");
     zmp_files::atomic_write(path, h.as_bytes(), false)
+}
+
+/// The stance resonance swept on the model file and the verdict on the named mode.
+fn stance_section(h: &mut String, s: &Summary) {
+    let band = s
+        .stance
+        .first()
+        .and_then(|a| Some((a.swept.first()?.omega, a.swept.last()?.omega)));
+    let _ =
+        write!(
+        h,
+        "<h2>Stance resonance: the named mode against the model file</h2>\n<p>The load-cell ZMP \
+         over the rigid robot's prediction from the measured trunk motion (the trunk servo \
+         divided out), swept noise-free on the model file{}, and the <code>structural_mode</code> \
+         law fitted to it. A mode the diagnosis names is the physical resonance only if it sits \
+         within 15 % of the swept one and the model with it predicts the twin's response at that \
+         frequency within 30 %; otherwise it is an in-band surrogate (below a mode its factor is \
+         1 + (share/wm<sup>2</sup>) w<sup>2</sup>: a campaign ending below the resonance fixes \
+         that curvature and little else).</p>\n<table><tr><th>axis</th><th>swept resonance \
+         (wm, zeta, share)</th><th>peak |factor|</th><th>named mode (wm, zeta, share)</th>\
+         <th>|G| at its wm: twin, model</th><th>verdict</th></tr>\n",
+        band.map_or(String::new(), |(a, b)| format!(" from {a:.0} to {b:.0} rad/s"))
+    );
+    for a in &s.stance {
+        let f = a.fitted;
+        let _ = writeln!(
+            h,
+            "<tr><td class=l>{}</td><td>{:.1} rad/s, {:.3}, {:.2}</td><td>{:.2} at {:.1} rad/s</td>\
+             <td>{}</td><td>{}</td><td class=l><b>{}</b></td></tr>",
+            a.axis,
+            f.omega_n,
+            f.zeta,
+            f.share,
+            a.peak_magnitude,
+            a.peak_omega,
+            a.named.map_or("none".into(), |m| format!(
+                "{}: {:.1} rad/s, {:.3}, {:.3}",
+                a.named_effect.as_deref().unwrap_or(""),
+                m.omega_n,
+                m.zeta,
+                m.share
+            )),
+            a.at_named
+                .map_or("".into(), |(t, n)| format!("{t:.1}, {n:.1}")),
+            esc(&a.verdict)
+        );
+    }
+    h.push_str("</table>\n");
 }

@@ -10,6 +10,7 @@ use zmp_diagnose::Diagnosis;
 use zmp_identify::Identification;
 use zmp_models::closed_loop::StepExperiment;
 use zmp_models::Axis;
+use zmp_models::EffectKind;
 
 /// One row of the `a`, `b` table.
 #[derive(Debug, Clone, Serialize)]
@@ -90,6 +91,8 @@ pub struct Summary {
     pub format: &'static str,
     pub model_file: String,
     pub short: bool,
+    /// The campaign was extended to 50 rad/s.
+    pub extended: bool,
     pub output: PathBuf,
     pub mass: MassProperties,
     pub predictions: Vec<OperatingPoint>,
@@ -103,6 +106,8 @@ pub struct Summary {
     pub identify_warnings: Vec<String>,
     pub closed_loop: ClosedLoopSummary,
     pub diagnosis: DiagnosisSummary,
+    /// The stance resonance swept on the model file against the mode the diagnosis named.
+    pub stance: Vec<super::stance::AxisStance>,
     /// Frame files (relative to the output folder), or why there are none.
     pub frames: Vec<PathBuf>,
     pub frames_note: Option<String>,
@@ -146,8 +151,12 @@ pub fn parameter_rows(
             return None;
         }
         let (effect, binding, name) = match key {
-            "omega_n" | "zeta" => ("tracking_lowpass", zmp_models::Binding::Axis(Axis::X), key),
-            k => ("pendulum", zmp_models::Binding::Global, k),
+            "omega_n" | "zeta" => (
+                EffectKind::TrackingLowpass,
+                zmp_models::Binding::Axis(Axis::X),
+                key,
+            ),
+            k => (EffectKind::Pendulum, zmp_models::Binding::Global, k),
         };
         d.final_model.value(effect, binding, name)
     };

@@ -7,7 +7,10 @@ use super::*;
 use crate::zmp::GRAVITY;
 use std::sync::OnceLock;
 
-fn twin() -> Silo2 {
+#[path = "../../../report/tests/support/html.rs"]
+mod html;
+
+pub(super) fn twin() -> Silo2 {
     Silo2::load(&default_mjcf()).expect("models/mjcf/silo2.xml loads")
 }
 
@@ -172,7 +175,7 @@ fn the_stated_zmp_delay_delays_the_measured_zmp() {
 }
 
 /// The short validation, run once for the tests below (about 20 s of CPU in release).
-fn short_run() -> &'static (tempfile::TempDir, Summary) {
+pub(super) fn short_run() -> &'static (tempfile::TempDir, Summary) {
     static RUN: OnceLock<(tempfile::TempDir, Summary)> = OnceLock::new();
     RUN.get_or_init(|| {
         let dir = tempfile::tempdir().unwrap();
@@ -181,6 +184,7 @@ fn short_run() -> &'static (tempfile::TempDir, Summary) {
             model: default_mjcf(),
             out: out.clone(),
             short: true,
+            extended: false,
             force: false,
             threads: 2,
             quiet: true,
@@ -347,4 +351,34 @@ fn the_readme_sections_quote_the_run() {
         "{}",
         secs[2].1
     );
+}
+
+mod findings;
+
+#[test]
+fn the_reports_are_fit_to_be_read() {
+    let (dir, s) = short_run();
+    let out = dir.path().join("twin");
+    // The twin's report, and the identification and diagnosis reports it links to, pass the
+    // report checks (support/html.rs: no markup shown as text, every reference beside the
+    // report, every figure an SVG or PNG that parses, no heading without content, no empty
+    // table).
+    let page = html::check_page(&out.join("report.html"));
+    for sub in ["identify/report.html", "diagnosis/diagnosis.html"] {
+        html::check_page(&out.join(sub));
+        assert_eq!(page.select(&format!("a[href=\"{sub}\"]")).len(), 1, "{sub}");
+    }
+    // The closed loop's figure is there, with its three panels (seed figures 18-20).
+    let cl = page.section("Closed loop");
+    let img = html::within(&cl, "img");
+    assert_eq!(img.len(), 1);
+    let svg = std::fs::read_to_string(out.join("closed_loop.svg")).unwrap();
+    for fig in ["seed fig. 18", "seed fig. 19", "seed fig. 20"] {
+        assert!(svg.contains(fig), "closed_loop.svg has no {fig}");
+    }
+    // One row per identified parameter, every finding of the diagnosis listed.
+    let rows = html::within(&page.section("Campaign and identification"), "tr");
+    assert_eq!(rows.len(), s.parameters.len() + 1);
+    let found = html::within(&page.section("Diagnosis on the twin"), "li");
+    assert_eq!(found.len(), s.diagnosis.findings.len());
 }

@@ -9,7 +9,8 @@
 //! 4. the closed loop (seed section 6.6) on the twin against the identified model's prediction
 //!    (`closed_loop.svg`);
 //! 5. the compare / diagnose loop on the campaign (`diagnosis/`, and the model with the effects
-//!    it found);
+//!    it found), and the stance resonance swept on the model file against the mode the loop
+//!    names ([`super::stance`]: the physical resonance or an in-band surrogate);
 //! 6. frames of the robot during the disturbance experiment (`frames/`, when rendering works);
 //! 7. `report.html` and `summary.json`.
 //!
@@ -60,6 +61,8 @@ pub struct ValidateOptions {
     pub model: PathBuf,
     pub out: PathBuf,
     pub short: bool,
+    /// The campaign extended to 50 rad/s ([`TwinDesign::extended`]).
+    pub extended: bool,
     pub force: bool,
     pub threads: usize,
     /// No progress bars (and no text).
@@ -187,6 +190,8 @@ pub fn validate(opts: &ValidateOptions) -> Result<Summary> {
     let props = mass_properties(&twin)?;
     let mut design = if opts.short {
         TwinDesign::short()
+    } else if opts.extended {
+        TwinDesign::extended()
     } else {
         TwinDesign::full()
     };
@@ -366,6 +371,20 @@ pub fn validate(opts: &ValidateOptions) -> Result<Summary> {
         diag.final_error / diag.noise_floor
     ));
     let parameters = parameter_rows(&predictions, &ident, &diag);
+    // The stance resonance swept on the model file, against the mode the diagnosis named.
+    let pb = bar(opts.quiet, 1, "stance");
+    let stance = super::stance::stance(
+        &twin,
+        &props,
+        upright.servo.b[1][1],
+        &diagnosis,
+        (!diag.selected.is_empty()).then_some(&diag.final_model),
+        opts.threads,
+    )?;
+    pb.finish_and_clear();
+    for s in &stance {
+        say(&format!("stance {}: {} ({})", s.axis, s.verdict, s.why));
+    }
 
     // 6. Frames.
     let (frames, frames_note) = make_frames(opts, &dir, &states);
@@ -375,6 +394,7 @@ pub fn validate(opts: &ValidateOptions) -> Result<Summary> {
         format: FORMAT,
         model_file: opts.model.display().to_string(),
         short: opts.short,
+        extended: opts.extended,
         output: opts.out.clone(),
         mass: props,
         predictions,
@@ -402,6 +422,7 @@ pub fn validate(opts: &ValidateOptions) -> Result<Summary> {
             wall_s: loop_wall,
         },
         diagnosis,
+        stance,
         frames,
         frames_note,
         wall_s: started.elapsed().as_secs_f64(),
