@@ -5,8 +5,10 @@
 //! They come from the identification's own per-record analysis (one harmonic regression in
 //! the crate: `[1, t - t_mid, sin k w t, cos k w t]` over whole periods of steady state, see
 //! `identify`), so the diagnosis never refits a record. The variances follow the noise where
-//! the components see it: the residual variance times the campaign's pooled colour factor
-//! beside the excitation (first harmonic) and near zero frequency (trend).
+//! the components see it: the records' period-to-period variation at the excitation (first
+//! harmonic) and at three times it (third), pooled over the campaign by frequency, and the
+//! residual's power near zero frequency (trend); each with its degrees of freedom in
+//! `zmp_identify::SteadyComponents`.
 
 use num_complex::Complex64;
 use zmp_identify::RecordFit;

@@ -120,7 +120,8 @@ pub struct Diagnosis {
 }
 
 /// Steady-state observations of every usable record (the identification's per-record
-/// analysis), and the records left out with why.
+/// analysis: steady state, harmonic fit with trend, noise from the periods), and the records left out
+/// with why.
 pub fn observe_campaign(
     campaign: &Campaign,
     threads: usize,

@@ -30,6 +30,25 @@ pub fn identify_analysed(
     if records.iter().all(|r| r.excluded.is_some()) {
         return Err(IdentifyError::NoUsableRecords(warnings.join("; ")));
     }
+    let own: Vec<usize> = records
+        .iter()
+        .filter(|r| {
+            r.components.as_ref().is_some_and(|c| {
+                c.noise
+                    .iter()
+                    .any(|n| n.first.source == crate::NoiseSource::Inconsistent)
+            })
+        })
+        .map(|r| r.index)
+        .collect();
+    if !own.is_empty() {
+        warnings.push(format!(
+            "{}: the first harmonic varies from period to period beyond the campaign's noise \
+             (a response that does not quite repeat: a transient left in the steady state, \
+             impacts, a drift); their standard errors are their own, larger",
+            name_records(&own)
+        ));
+    }
     check_frequency_span(&records)?;
     let factors = start_factors(opts.start_model.as_ref(), &records);
     let ctx = FitContext {

@@ -9,7 +9,8 @@
 //! 3. nonlinear regression: DC + K harmonics of the input and both outputs by linear least
 //!    squares at a given frequency, the frequency refined on the summed residual (variable
 //!    projection); per record the column of `G` for the excited input, its standard error,
-//!    the harmonic distortion and the noise;
+//!    the harmonic distortion and the noise (from the period-to-period variation of the
+//!    steady state, pooled over the campaign by frequency: `noise`);
 //! 4. pendulum fit: `G_ij = (a_ij + b_ij w^2) H(jw)` for the four channels jointly with a shared
 //!    tracking low-pass `H = wn^2/(s^2 + 2 zeta wn s + wn^2)`, weighted Levenberg-Marquardt,
 //!    standard errors from `(J^T W J)^-1` scaled by the reduced chi-square when above one;
@@ -42,7 +43,7 @@ mod uncertainty;
 
 pub use campaign_fit::identify_analysed;
 pub use model_file::{summary_json, write_model};
-pub use record_analysis::{analyse_folder, analyse_record, analyse_records, pool_colour};
+pub use record_analysis::{analyse_folder, analyse_record, analyse_records, pool_noise};
 
 use num_complex::Complex64;
 use serde::Serialize;
@@ -159,6 +160,55 @@ pub struct RecordFit {
     pub components: Option<SteadyComponents>,
 }
 
+/// A noise power per sample and its effective degrees of freedom: white noise of variance
+/// `s^2` has power `s^2` at every frequency; a least-squares sine coefficient over `n`
+/// samples of a noise of power `S` near its frequency has variance about `2 S / n`. The
+/// estimate is a scaled chi-square with `dof` degrees of freedom (`power` `NaN` and `dof` 0
+/// when nothing measured it).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct NoisePower {
+    /// m².
+    pub power: f64,
+    pub dof: f64,
+    pub source: NoiseSource,
+}
+
+/// Where a record's noise power comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NoiseSource {
+    /// Measured by this record alone (its periods, or its bins near zero frequency).
+    Own,
+    /// Pooled over the campaign's records by frequency (one sensor, one noise).
+    Pooled,
+    /// This record's own although pooling was asked: it varies from period to period beyond
+    /// the campaign's noise (a response that does not quite repeat), and keeps the larger.
+    Inconsistent,
+    /// The residual variance of its harmonic fit: there was nothing to pool.
+    Residual,
+    /// Nothing measured it.
+    Unmeasured,
+}
+
+/// The noise of one output of a record (see the `noise` module): this record's own
+/// period-to-period estimates, its residual's bins near zero frequency, and the campaign's
+/// pooled powers its variances use.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutputNoise {
+    /// From this record's periods alone: at its frequency and at three times it.
+    pub periods_first: NoisePower,
+    pub periods_third: NoisePower,
+    /// Residual power per sample in bins near zero frequency, each clear of every harmonic:
+    /// `(frequency rad/s, m²)`, two degrees of freedom each.
+    pub zero_bins: Vec<(f64, f64)>,
+    /// Pooled over the campaign's records by frequency: at this record's frequency (its first
+    /// harmonic's noise), at three times it (its third harmonic's), and averaged over
+    /// `trend_omegas` (its trend's).
+    pub first: NoisePower,
+    pub third: NoisePower,
+    pub trend: NoisePower,
+}
+
 /// The steady-state components of a record from its harmonic fit (with a trend column), and
 /// the noise they carry: what the diagnosis compares with a model.
 #[derive(Debug, Clone, PartialEq)]
@@ -167,6 +217,8 @@ pub struct SteadyComponents {
     pub t0: f64,
     pub t1: f64,
     pub samples: usize,
+    /// Whole periods in the window.
+    pub periods: usize,
     /// Frequency the components were fitted at (refined), rad/s.
     pub omega: f64,
     /// First-harmonic phasor of the excited input (sin-referenced, phase from the window's
@@ -177,26 +229,19 @@ pub struct SteadyComponents {
     pub y3: [Complex64; 2],
     /// Linear trend of each output over the window, m/s.
     pub trend: [f64; 2],
-    /// Residual variance of the harmonic fit of each output (white-noise estimate), m².
+    /// Residual variance of the harmonic fit of each output, m²: the noise plus every
+    /// harmonic above the fitted ones (reported as the record's noise level; the variances
+    /// below do not use it).
     pub residual_var: [f64; 2],
     /// Residual variance of the harmonic fit of the excited input, m².
     pub input_residual_var: f64,
-    /// Residual power beside the excitation and near zero frequency over the residual
-    /// variance, per output: this record's own colour estimate.
-    pub colour_raw: [(f64, f64); 2],
     /// The frequencies at which the fitted trend sees the noise, rad/s: the
     /// `record_analysis::TREND_NODES` equal-weight quadrature nodes of the
-    /// trend column's spectral window over this window's length (the trend's colour factor
-    /// is the pooled colour averaged over them).
+    /// trend column's spectral window over this window's length (the trend's noise power is
+    /// the pooled power averaged over them).
     pub trend_omegas: [f64; record_analysis::TREND_NODES.len()],
-    /// Every bin of the colour estimate, per output: `(frequency rad/s, power over the
-    /// residual variance)`, pooled over the campaign by frequency.
-    pub colour_bins: [Vec<(f64, f64)>; 2],
-    /// The campaign's pooled colour factors, per output: at this record's frequency (its
-    /// first harmonic's) and averaged over `trend_omegas` (its trend's); 1 for white noise.
-    pub colour: [(f64, f64); 2],
-    /// The same at three times the record's frequency (the third harmonic's noise).
-    pub colour3: [f64; 2],
+    /// The noise of each output.
+    pub noise: [OutputNoise; 2],
     /// Variance factors of the fit: inverse normal matrix at the fundamental's sin and cos
     /// columns, and at the trend column (1/s²).
     pub inv_diag_h1: [f64; 2],
@@ -204,20 +249,40 @@ pub struct SteadyComponents {
 }
 
 impl SteadyComponents {
-    /// Variance of the real (and of the imaginary) part of `y1[i]`, m².
+    /// Variance of the real (and of the imaginary) part of `y1[i]`, m²: the pooled
+    /// period-to-period noise power at the record's frequency times the fit's factor.
     pub fn y1_var(&self, i: usize) -> f64 {
-        self.residual_var[i] * self.colour[i].0 * 0.5 * (self.inv_diag_h1[0] + self.inv_diag_h1[1])
+        self.noise[i].first.power * 0.5 * (self.inv_diag_h1[0] + self.inv_diag_h1[1])
     }
 
-    /// Variance of `trend[i]`, (m/s)².
+    /// Variance of `trend[i]`, (m/s)²: the pooled power near zero frequency at the trend's
+    /// nodes times the fit's factor.
     pub fn trend_var(&self, i: usize) -> f64 {
-        self.residual_var[i] * self.colour[i].1 * self.inv_diag_trend
+        self.noise[i].trend.power * self.inv_diag_trend
     }
 
-    /// Variance of the real (and of the imaginary) part of `y3[i]`, m²: `2/n` of the noise
-    /// at three times the frequency (the harmonic columns are orthogonal over whole periods).
+    /// Variance of the real (and of the imaginary) part of `y3[i]`, m²: `2/n` of the pooled
+    /// period-to-period noise power at three times the frequency (the harmonic columns are
+    /// orthogonal over whole periods).
     pub fn y3_var(&self, i: usize) -> f64 {
-        self.residual_var[i] * self.colour3[i] * 2.0 / self.samples.max(1) as f64
+        self.noise[i].third.power * 2.0 / self.samples.max(1) as f64
+    }
+
+    /// Effective degrees of freedom of [`y1_var`](Self::y1_var): its estimate is a scaled
+    /// chi-square with this many (a whitened first-harmonic component then follows Student's
+    /// t, a sum of `k` squared ones over `k` an F(k, dof), rather than a chi-square).
+    pub fn y1_dof(&self, i: usize) -> f64 {
+        self.noise[i].first.dof
+    }
+
+    /// Effective degrees of freedom of [`trend_var`](Self::trend_var).
+    pub fn trend_dof(&self, i: usize) -> f64 {
+        self.noise[i].trend.dof
+    }
+
+    /// Effective degrees of freedom of [`y3_var`](Self::y3_var).
+    pub fn y3_dof(&self, i: usize) -> f64 {
+        self.noise[i].third.dof
     }
 }
 

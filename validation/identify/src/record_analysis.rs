@@ -1,8 +1,9 @@
-//! Steps 1-3 for each record (steady state, FFT first estimate, harmonic regression) and the
-//! campaign-wide pooling of the noise's colour.
+//! Steps 1-3 for each record (steady state, FFT first estimate, harmonic regression, the
+//! record's noise from its periods) and the campaign-wide pooling of the noise (`noise`).
 
 use super::{
-    noise, reason, sine, steady, worker_count, IdentifyOptions, RecordFit, SteadyComponents,
+    noise, reason, sine, steady, worker_count, IdentifyOptions, NoisePower, NoiseSource,
+    OutputNoise, RecordFit, SteadyComponents,
 };
 use num_complex::Complex64;
 use std::f64::consts::PI;
@@ -105,9 +106,16 @@ pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> Rec
         return excluded(rec, index, reason::BAD_DATA);
     };
     let hf = moved.unwrap_or(first);
-    // The outputs' residual colour (the input's is not used: its noise enters through
-    // `noise_var[0]` alone).
-    let local = noise::local_noise([sig[1], sig[2]], &hf.pick([1, 2]), w, dt);
+    // The outputs' noise: the residual once, its period-to-period variation (first and third
+    // harmonic) and its bins near zero frequency (the trend); pooled over the campaign later.
+    let out_fit = hf.pick([1, 2]);
+    let mut res = noise::spectrum::residuals([sig[1], sig[2]], &out_fit, w, dt, st.len);
+    let w_window = noise::periods::window_frequency(st.len, dt, st.periods);
+    let cleaned = noise::spectrum::CLEAN_HARMONICS;
+    noise::spectrum::remove_harmonics::<2>(&mut res, st.len, w_window, dt, k_max + 1, cleaned);
+    let by_period = noise::periods::period_noise::<2>(&res, st.len, dt, st.periods);
+    let bins = noise::spectrum::zero_bin_frequencies(st.len, dt, w);
+    let powers = noise::spectrum::bin_powers::<2>(&res, st.len, &bins, dt);
     let p_in = hf.harmonics[0][0];
     let nn = st.len as f64;
     let amp_in = p_in.norm();
@@ -144,11 +152,44 @@ pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> Rec
             .copied()
             .unwrap_or(Complex64::new(0.0, 0.0))
     };
-    let ratio = |j: usize, v: f64| v / hf.noise_var[j].max(1e-300);
+    let unmeasured = NoisePower {
+        power: f64::NAN,
+        dof: 0.0,
+        source: NoiseSource::Unmeasured,
+    };
+    let output_noise = |o: usize| {
+        let own = |power: Option<f64>, dof: Option<f64>| match (power, dof) {
+            (Some(power), Some(dof)) if power.is_finite() => NoisePower {
+                power,
+                dof,
+                source: NoiseSource::Own,
+            },
+            _ => unmeasured,
+        };
+        OutputNoise {
+            periods_first: own(
+                by_period.map(|b| b.first[o]),
+                by_period.map(|b| b.first_dof),
+            ),
+            periods_third: own(
+                by_period.map(|b| b.third[o]),
+                by_period.map(|b| b.third_dof),
+            ),
+            zero_bins: bins
+                .iter()
+                .copied()
+                .zip(powers[o].iter().copied())
+                .collect(),
+            first: unmeasured,
+            third: unmeasured,
+            trend: unmeasured,
+        }
+    };
     let components = SteadyComponents {
         t0,
         t1: rec.t[st.start + st.len - 1],
         samples: st.len,
+        periods: st.periods,
         omega: w,
         u1: p_in,
         y1: [hf.harmonics[1][0], hf.harmonics[2][0]],
@@ -157,20 +198,7 @@ pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> Rec
         residual_var: [hf.noise_var[1], hf.noise_var[2]],
         input_residual_var: hf.noise_var[0],
         trend_omegas: trend_omegas(st.len as f64 * dt),
-        colour_raw: [
-            (ratio(1, local[0].near_omega), ratio(1, local[0].near_zero)),
-            (ratio(2, local[1].near_omega), ratio(2, local[1].near_zero)),
-        ],
-        colour_bins: [1, 2].map(|j| {
-            local[j - 1]
-                .near_bins
-                .iter()
-                .chain(local[j - 1].zero_bins.iter())
-                .map(|&(f, p)| (f, ratio(j, p)))
-                .collect()
-        }),
-        colour: [(1.0, 1.0); 2],
-        colour3: [1.0; 2],
+        noise: [output_noise(0), output_noise(1)],
         inv_diag_h1: hf.inv_diag_h1,
         inv_diag_trend: hf.inv_diag_trend,
     };
@@ -196,7 +224,7 @@ pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> Rec
 }
 
 /// Analyses every record on `threads` scoped threads, results in record order; the noise's
-/// colour is then pooled over the campaign ([`pool_colour`]).
+/// noise is then pooled over the campaign ([`pool_noise`]).
 pub fn analyse_records(
     campaign: &Campaign,
     opts: &IdentifyOptions,
@@ -208,7 +236,7 @@ pub fn analyse_records(
         progress(done.fetch_add(1, Ordering::Relaxed) + 1);
         fit
     });
-    pool_colour(&mut fits, opts.relative_floor);
+    pool_noise(&mut fits, opts.relative_floor);
     fits
 }
 
@@ -239,7 +267,7 @@ pub fn analyse_folder(
         progress(done.fetch_add(1, Ordering::Relaxed) + 1);
         fit
     })?;
-    pool_colour(&mut fits, opts.relative_floor);
+    pool_noise(&mut fits, opts.relative_floor);
     Ok(fits)
 }
 
@@ -247,11 +275,11 @@ pub fn analyse_folder(
 /// the equal-weight quadrature nodes (the midpoints of the eight octiles) of the trend
 /// column's spectral window `|f(x)|^2`, `f(x) = (sin x - x cos x) / x^2` (the Fourier
 /// transform of the centred ramp; its integral is `pi/6`). The trend's variance under a
-/// noise of spectrum `S` is its white-noise variance times the `|f|^2`-weighted mean of
-/// `S` over the white level, so the mean of the pooled colour at these nodes. Most of the
+/// noise of spectrum `S` is its white-noise factor times the `|f|^2`-weighted mean of
+/// `S`, so the mean of the pooled noise power at these nodes. Most of the
 /// weight lies below one Fourier bin of the window (`x < pi`), where no bin of the record
 /// itself can be read (its trend and DC take them): the pool reads it from the bins of the
-/// campaign's longer records. The colour near the bins two to ten resolutions up, which a
+/// campaign's longer records. The noise near the bins two to ten resolutions up, which a
 /// first-order noise of 1 s (a force sensor's slow creep) already puts 10-30 times lower,
 /// left the trend's standard error 2-3 times too small on short records: a clean robot's
 /// trends were then "significant" and its cells failed at 3-5 times their floor.
@@ -262,57 +290,33 @@ pub fn trend_omegas(window_s: f64) -> [f64; TREND_NODES.len()] {
     TREND_NODES.map(|x| 2.0 * x / window_s.max(1e-9))
 }
 
-/// Pools the records' colour estimates over the campaign, per output and by frequency (see
-/// `noise`), and updates each record's colour factors and the standard errors of its `g`:
-/// with white noise the factors are about 1 and nothing changes; with coloured noise the
-/// variances follow the noise where each record sees it.
-pub fn pool_colour(records: &mut [RecordFit], relative_floor: f64) {
-    use noise::{pool_ratios, ColourSample};
-    for i in 0..2 {
-        // Every bin of every record, at its own frequency; a bin both beside the excitation
-        // and near zero counts once.
-        let mut samples: Vec<ColourSample> = Vec::new();
-        for c in records.iter().filter_map(|r| r.components.as_ref()) {
-            let res = 2.0 * std::f64::consts::PI / (c.t1 - c.t0).max(1e-9);
-            let mut seen: Vec<f64> = Vec::new();
-            for &(w, ratio) in &c.colour_bins[i] {
-                if seen.iter().any(|s| (s - w).abs() < 0.25 * res) {
-                    continue;
-                }
-                seen.push(w);
-                samples.push(ColourSample {
-                    omega: w,
-                    ratio,
-                    bins: 1,
-                });
+/// Pools the records' noise estimates over the campaign, per output and by frequency (see
+/// `noise`): every record's period-to-period powers (at its frequency and at three times it,
+/// one spectrum) and every record's bins near zero frequency (the trends'), each read at the
+/// record's own frequencies. Updates each record's pooled noise, the standard errors of its
+/// `g` and its third harmonic's signal-to-noise ratio. A record too short for two periods has
+/// no components and is not pooled (`analyse_record` excludes it); a record whose periods
+/// measured nothing gets the pooled value at its frequency like every other; with nothing to
+/// pool at all (no record of two periods) a record keeps its residual variance, the
+/// white-noise estimate, with its residual's degrees of freedom.
+pub fn pool_noise(records: &mut [RecordFit], relative_floor: f64) {
+    let analysed: Vec<usize> = (0..records.len())
+        .filter(|&k| records[k].components.is_some())
+        .collect();
+    let comps: Vec<&SteadyComponents> = analysed
+        .iter()
+        .filter_map(|&k| records[k].components.as_ref())
+        .collect();
+    let pooled = [0, 1].map(|i| noise::campaign::pooled(&comps, i));
+    for (n, &k) in analysed.iter().enumerate() {
+        let r = &mut records[k];
+        let c = r.components.as_mut().expect("analysed");
+        for i in 0..2 {
+            (c.noise[i].first, c.noise[i].third, c.noise[i].trend) = pooled[i][n];
+            let se3 = c.y3_var(i).sqrt().max(1e-300);
+            if r.third_harmonic_snr[i] > 0.0 {
+                r.third_harmonic_snr[i] = c.y3[i].norm() / se3;
             }
-        }
-        let q_near: Vec<f64> = records
-            .iter()
-            .map(|r| r.components.as_ref().map_or(f64::NAN, |c| c.omega))
-            .collect();
-        let q_zero: Vec<f64> = records
-            .iter()
-            .flat_map(|r| {
-                r.components
-                    .as_ref()
-                    .map_or([f64::NAN; TREND_NODES.len()], |c| c.trend_omegas)
-            })
-            .collect();
-        let q_third: Vec<f64> = q_near.iter().map(|w| 3.0 * w).collect();
-        let f_near = pool_ratios(&samples, &q_near);
-        // The trend's factor: the pooled colour averaged over its quadrature nodes.
-        let f_zero: Vec<f64> = pool_ratios(&samples, &q_zero)
-            .chunks(TREND_NODES.len())
-            .map(|f| f.iter().sum::<f64>() / f.len() as f64)
-            .collect();
-        let f_third = pool_ratios(&samples, &q_third);
-        for (k, r) in records.iter_mut().enumerate() {
-            let Some(c) = r.components.as_mut() else {
-                continue;
-            };
-            c.colour[i] = (f_near[k], f_zero[k]);
-            c.colour3[i] = f_third[k];
             if r.excluded.is_none() || r.excluded.as_deref() == Some(reason::SATURATED) {
                 let amp2 = c.u1.norm_sqr().max(1e-300);
                 let u_var = c.input_residual_var * 0.5 * (c.inv_diag_h1[0] + c.inv_diag_h1[1]);

@@ -3,7 +3,9 @@
 #![allow(clippy::needless_range_loop)]
 
 use zmp_campaign::{Campaign, Record, RecordMeta};
-use zmp_identify::{identify, reason, write_model, IdentifyError, IdentifyOptions};
+use zmp_identify::{
+    analyse_records, identify, reason, write_model, IdentifyError, IdentifyOptions, NoiseSource,
+};
 use zmp_models::logspace;
 use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding, ModelSpec};
@@ -82,6 +84,57 @@ fn short_zero_and_constant_records_are_named() {
         "{all}"
     );
     assert_eq!(id.used().count(), camp.records.len() - 4);
+}
+
+/// The noise of a record from its periods (`noise`): a record with fewer than two whole
+/// periods of steady state is excluded and neither measures a noise nor receives one; one of
+/// exactly two periods measures nothing of its own (a line through two periods' phasors
+/// leaves no variation) and receives the campaign's pooled noise at its frequency.
+#[test]
+fn a_record_of_two_periods_gets_the_pooled_noise_and_one_of_fewer_none() {
+    let mut camp = small(logspace(0.5, 15.0, 8));
+    let opts = IdentifyOptions::default();
+    let whole = analyse_records(&camp, &opts, &|_| {});
+    let cut = |r: &mut Record, keep: usize| {
+        for c in [
+            &mut r.t,
+            &mut r.x_cr,
+            &mut r.y_cr,
+            &mut r.zmp_x,
+            &mut r.zmp_y,
+        ] {
+            c.truncate(keep);
+        }
+    };
+    // Record 3: its steady state cut to 2.4 periods; record 4: to 1.6.
+    for (k, periods) in [(3usize, 2.4), (4, 1.6)] {
+        let r = &mut camp.records[k];
+        let start = whole[k].steady_start_s;
+        let keep =
+            ((start + periods * 2.0 * std::f64::consts::PI / r.meta.omega) / r.dt()) as usize;
+        cut(r, keep);
+    }
+    let fits = analyse_records(&camp, &opts, &|_| {});
+    let two = &fits[3];
+    assert_eq!(two.excluded, None);
+    assert_eq!(two.periods, 2);
+    let c = two.components.as_ref().unwrap();
+    for i in 0..2 {
+        let own = c.noise[i].periods_first;
+        assert_eq!(own.source, NoiseSource::Unmeasured, "{own:?}");
+        let first = c.noise[i].first;
+        assert_eq!(first.source, NoiseSource::Pooled, "{first:?}");
+        assert!(first.dof > 20.0, "{first:?}");
+        assert!(c.y1_var(i).is_finite() && c.y1_var(i) > 0.0);
+        assert!(two.sigma[i].is_finite() && two.sigma[i] > 0.0);
+    }
+    let short = &fits[4];
+    assert!(
+        [Some(reason::NO_STEADY), Some(reason::TOO_SHORT)].contains(&short.excluded.as_deref()),
+        "{:?}",
+        short.excluded
+    );
+    assert!(short.components.is_none());
 }
 
 #[test]

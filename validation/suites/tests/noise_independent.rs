@@ -7,19 +7,29 @@
 //! periodogram bin), the least-squares sine and cosine coefficients over `n` samples have
 //! variance `2 P(omega) / n`; over the input's amplitude that is the standard error of one
 //! part of `G`. The identification must give it at every frequency, the lowest included,
-//! where a record holds only two or three periods. Bounds: the median within 0.85-1.15 (96
-//! pooled bins give a power to about 10 %, a standard error to about 5 %), every record at
-//! least 0.7 of the exact value (too small a standard error is what makes noise look like an
-//! effect) and at most 2.5 (each record's own residual variance scales its colour factor; a
-//! 25 s record of noise correlated over 0.8 s holds few independent samples of it, and a few
-//! records come out up to 2.3 times too cautious). The upper bound was set after a first run
-//! showed those records; the lower one and the median's were not moved. Before the bins next
-//! to the excitation were used, the records at 0.5-2 rad/s of these robots came out 2-4.5
-//! times too small.
+//! where a record holds only two or three periods. Bounds: the median within 0.85-1.15 (a
+//! pooled power of at least 192 degrees of freedom is good to about 10 %, a standard error to
+//! about 5 %), every record at least 0.7 of the exact value (too small a standard error is
+//! what makes noise look like an effect) and at most 2.5. The standard errors come from the
+//! records' period-to-period variation, pooled by frequency (`zmp_identify` `noise`); a record
+//! whose own variation is beyond the campaign's at 1 % (Bonferroni over the campaign) keeps
+//! its own, and is exempt from the upper bound: its response does not quite repeat, which the
+//! sensor's noise, the exact value here, does not see. Each such record must vary beyond the
+//! simulator's exact noise: its own
+//! period-to-period power over the exact power, a scaled chi-square of its degrees of freedom
+//! under the noise alone, beyond the one-sided 1 % point (Wilson and Hilferty's
+//! approximation). Before the bins next to the excitation were used, the records at 0.5-2 rad/s of
+//! these robots came out 2-4.5 times too small; when the floor was the residual variance
+//! times a pooled colour factor, the records of this test ended 0.75-2.3 times the exact
+//! value (median 0.99-1.06); with the periods compared with their mean rather than a line
+//! through them, 5-7 records a seed (the refined frequency a little off, the response's
+//! phasor turning from period to period) kept their own variance at 1.6-4.1 times the exact
+//! value.
 
 use std::f64::consts::PI;
 use zmp_campaign::read_campaign;
-use zmp_identify::{identify, IdentifyOptions};
+use zmp_files::sections::check_page as doc_section;
+use zmp_identify::{identify, IdentifyOptions, NoiseSource};
 use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Scenario};
 
 /// Development seeds whose clean robots have slow coloured noise (correlation 0.6-0.8 s),
@@ -60,13 +70,16 @@ fn identified_clean(seed: u64, dir: &std::path::Path) -> Clean {
 #[test]
 fn first_harmonic_standard_error_matches_the_simulators_noise() {
     let dir = tempfile::tempdir().unwrap();
+    let mut book = String::new();
     for seed in SEEDS {
         let Clean { id, noise, dt } = identified_clean(seed, dir.path());
         let opts = IdentifyOptions::default();
         let phi = (-dt / noise.coloured_tau).exp();
         let mut ratios = Vec::new();
+        let mut own = Vec::new();
         let mut lowest = f64::INFINITY;
         for r in id.records.iter().filter(|r| r.excluded.is_none()) {
+            let c = r.components.as_ref().expect("an analysed record");
             let x = r.omega * dt;
             let power = noise.white_std.powi(2)
                 + noise.coloured_std.powi(2) * (1.0 - phi * phi)
@@ -80,8 +93,23 @@ fn first_harmonic_standard_error_matches_the_simulators_noise() {
                 let floor = opts.relative_floor * r.g[i].norm();
                 let noise_part = (r.sigma[i].powi(2) - floor * floor).max(0.0).sqrt();
                 let q = noise_part / exact;
+                let inconsistent = c.noise[i].first.source == NoiseSource::Inconsistent;
+                if inconsistent {
+                    let own_power = c.noise[i].periods_first;
+                    let z = chi2_deviate(own_power.power / power, own_power.dof);
+                    assert!(
+                        z > 2.326,
+                        "seed {seed} record {} output {i} keeps its own noise, {:.2} times the \
+                         exact power with {:.1} degrees of freedom (z {z:.2}): not beyond the \
+                         noise",
+                        r.index,
+                        own_power.power / power,
+                        own_power.dof
+                    );
+                    own.push(format!("record {} output {i} x{q:.2}", r.index));
+                }
                 assert!(
-                    (0.7..2.5).contains(&q),
+                    q >= 0.7 && (q < 2.5 || inconsistent),
                     "seed {seed} record {} ({:.2} rad/s, {} periods) output {i}: standard \
                      error {:.3e} against the exact {exact:.3e} (x{q:.2}); noise {noise:?}",
                     r.index,
@@ -102,12 +130,28 @@ fn first_harmonic_standard_error_matches_the_simulators_noise() {
             ratios.len()
         );
         println!(
-            "seed {seed}: {} parts, standard error / exact: min {:.2}, median {median:.2}, max {:.2} (noise {noise:?})",
+            "seed {seed}: {} parts, standard error / exact: min {:.2}, median {median:.2}, max {:.2}; their own: {own:?} (noise {noise:?})",
             ratios.len(),
             ratios[0],
             ratios[ratios.len() - 1]
         );
+        book.push_str(&format!(
+            "   - seed {seed}, first harmonic: {} parts, min {:.2}, median {median:.2}, \
+                 max {:.2}; {} keep their own variance\n",
+            ratios.len(),
+            ratios[0],
+            ratios[ratios.len() - 1],
+            own.len()
+        ));
     }
+    doc_section("docs/src/identification.md", "noise-first-harmonic", &book);
+}
+
+/// The standard normal deviate of a scaled chi-square `ratio = X / dof` of `dof` degrees of
+/// freedom (Wilson and Hilferty's cube root).
+fn chi2_deviate(ratio: f64, dof: f64) -> f64 {
+    let a = 2.0 / (9.0 * dof);
+    (ratio.cbrt() - (1.0 - a)) / a.sqrt()
 }
 
 /// `sum_jk phi^|j-k| w_j w_k` in one pass each way.
@@ -140,6 +184,7 @@ fn ar1_form(w: &[f64], phi: f64) -> f64 {
 #[test]
 fn trend_standard_error_matches_the_simulators_noise() {
     let dir = tempfile::tempdir().unwrap();
+    let mut book = String::new();
     for seed in SEEDS {
         let Clean { id, noise, dt } = identified_clean(seed, dir.path());
         let opts = IdentifyOptions::default();
@@ -199,5 +244,12 @@ fn trend_standard_error_matches_the_simulators_noise() {
             "seed {seed}: median {median:.3} over {} trends",
             ratios.len()
         );
+        book.push_str(&format!(
+            "   - seed {seed}, trend: {} trends, min {:.2}, median {median:.2}, max {:.2}\n",
+            ratios.len(),
+            ratios[0],
+            ratios[ratios.len() - 1]
+        ));
     }
+    doc_section("docs/src/identification.md", "noise-trend", &book);
 }
