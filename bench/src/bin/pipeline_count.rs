@@ -33,7 +33,11 @@ fn count_loop_identify(dir: &Path) -> anyhow::Result<String> {
 #[inline(never)]
 fn count_loop_diagnose(camp: &Campaign, model: &ModelSpec) -> anyhow::Result<String> {
     let d = diagnose_campaign(black_box(camp), black_box(model))?;
-    Ok(format!("diagnosed: verdict {}", d.verdict))
+    let first = d
+        .findings
+        .first()
+        .map_or("none".to_string(), |f| f.effect.to_string());
+    Ok(format!("diagnosed: verdict {}, first {first}", d.verdict))
 }
 
 fn run(mode: &str, dir: &Path) -> anyhow::Result<String> {
