@@ -372,7 +372,7 @@ fn score_all(
 }
 
 /// The fit of `s` on every record, from its chain's fits on every record (computed along
-/// the way into `all`) by the same policy.
+/// the way into `all`) by the same policy; past the time limit, a structure's first-fold fit.
 pub fn fit_all(
     search: &Search,
     s: &Structure,
@@ -385,8 +385,8 @@ pub fn fit_all(
         if all.contains_key(&step) {
             continue;
         }
-        let fit = if step.is_empty() {
-            fit_root(model, obs, &r)?
+        let fitted = if step.is_empty() {
+            fit_root(model, obs, &r)
         } else {
             let root = all.get(&Structure::root())?;
             let parents: Vec<(&Structure, &Fit)> = step
@@ -394,7 +394,14 @@ pub fn fit_all(
                 .iter()
                 .filter_map(|c| all.get_key_value(&step.without(c)))
                 .collect();
-            fit_starts(&starts_of(&step, &parents, root, &r), obs, &r)?
+            fit_starts(&starts_of(&step, &parents, root, &r), obs, &r)
+        };
+        // Past the time limit no fit runs: the structure keeps what the search reached, its
+        // fit on the first fold's records.
+        let fit = match fitted {
+            Some(f) => f,
+            None if zmp_campaign::par::past_deadline() => search.nodes.get(&step)?.folds[0].clone(),
+            None => return None,
         };
         all.insert(step, fit);
     }

@@ -110,5 +110,10 @@ fn an_effect_outside_the_catalogue_is_unexplained() {
     let f = &d.findings[0];
     assert_eq!(f.effect, Subject::Unexplained);
     assert!(f.channels.iter().any(|c| c == "G11"), "{:?}", f.channels);
-    assert!(!f.remaining.is_empty());
+    // Where it still fails: the cells left, or the residual described in words.
+    assert!(
+        !f.remaining.is_empty() || !d.residual.is_empty(),
+        "{}",
+        d.to_text()
+    );
 }
