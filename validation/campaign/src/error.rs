@@ -48,17 +48,22 @@ pub enum CampaignError {
     /// A file or folder could not be read, written, created or renamed.
     #[error("{}", render_io(.path, *.record, .action, .source))]
     Io {
+        /// The file or folder.
         path: PathBuf,
         /// The record whose file this is, if any (a missing record CSV names its index).
         record: Option<usize>,
         /// "read", "write", "create directory", "rename", ...
         action: &'static str,
+        /// The operating system's error.
         #[source]
         source: io::Error,
     },
     /// [`write_campaign`](super::write_campaign) found a non-empty folder and was not allowed to replace it.
     #[error("{}: exists, pass --force to overwrite", .path.display())]
-    AlreadyExists { path: PathBuf },
+    AlreadyExists {
+        /// The folder.
+        path: PathBuf,
+    },
 }
 
 impl From<zmp_files::FileError> for CampaignError {

@@ -61,9 +61,12 @@ pub struct Entry {
     /// not a number).
     #[serde(deserialize_with = "null_as_nan")]
     pub error: f64,
+    /// The noise floor of that error measure (JSON `null` when not a number).
     #[serde(deserialize_with = "null_as_nan")]
     pub noise_floor: f64,
+    /// When the entry was written (UTC, RFC 3339).
     pub date: String,
+    /// The tool and version that wrote it (`zmp-toolkit 0.1.0`).
     pub tool: String,
 }
 
@@ -75,6 +78,7 @@ fn null_as_nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
 /// What [`read`] found: the entries, in file order, and one warning per line skipped.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Contents {
+    /// The entries that parse, in file order.
     pub entries: Vec<Entry>,
     /// `"<file>:<line>: ... skipped"`, one per damaged line.
     pub warnings: Vec<String>,

@@ -7,6 +7,7 @@
 //! Beside the format: the model [`ledger`] (which model came from which, with its error) and
 //! the toolkit's one thread pool ([`par`]), which the reading, the identification and the
 //! diagnosis share.
+#![warn(missing_docs)]
 
 pub mod ledger;
 pub mod par;
@@ -41,19 +42,26 @@ pub const MANIFEST_FILE: &str = "campaign.toml";
 /// A whole campaign: header fields of `campaign.toml` and every record with its data.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Campaign {
+    /// The campaign's name (`name`).
     pub name: Option<String>,
+    /// The robot it was measured on (`robot`).
     pub robot: Option<String>,
     /// If given, every record's time step must agree with it within 1 %.
     pub sample_rate_hz: Option<f64>,
+    /// Every record, in `campaign.toml`'s order.
     pub records: Vec<Record>,
 }
 
 /// The content of `campaign.toml` alone: a campaign without its data.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Manifest {
+    /// The campaign's name (`name`).
     pub name: Option<String>,
+    /// The robot it was measured on (`robot`).
     pub robot: Option<String>,
+    /// The stated sample rate, Hz (`sample_rate_hz`).
     pub sample_rate_hz: Option<f64>,
+    /// Every `[[records]]` table, in file order.
     pub records: Vec<RecordMeta>,
 }
 
@@ -75,6 +83,7 @@ pub struct RecordMeta {
 /// One record: its metadata and its columns (all the same length, SI units).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Record {
+    /// What `campaign.toml` says of the record.
     pub meta: RecordMeta,
     /// Time, s: strictly increasing, uniform step.
     pub t: Vec<f64>,
@@ -96,6 +105,7 @@ impl Record {
         self.t.len()
     }
 
+    /// Whether the record has no samples.
     pub fn is_empty(&self) -> bool {
         self.t.is_empty()
     }

@@ -102,7 +102,7 @@ pub fn dominant_line(u: &[f64], dt: f64) -> Option<f64> {
 const RESYNC: usize = 1024;
 
 /// `sum_k y_k w_k e^{-i alpha k}` for each `alpha`, with the Hann window
-/// `w_k = 1/2 - cos(beta k)/2`; rotations by recurrence, resynchronised every [`RESYNC`]. The
+/// `w_k = 1/2 - cos(beta k)/2`; rotations by recurrence, resynchronised every `RESYNC`. The
 /// one windowed transform of the workspace: the reader's check here and identification's
 /// first estimate (`zmp-identify`) use it.
 #[allow(clippy::needless_range_loop)]

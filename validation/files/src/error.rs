@@ -9,11 +9,15 @@ use std::path::{Path, PathBuf};
 pub enum FileError {
     /// The destination exists and `--force` was not given.
     #[error("{} already exists; pass --force to replace it", .path.display())]
-    Exists { path: PathBuf },
+    Exists {
+        /// The destination.
+        path: PathBuf,
+    },
     /// The destination exists and is not what would be written there (another kind of file,
     /// a folder this tool did not write, a block device, ...): never replaced, `--force` or not.
     #[error("{}: {why}; refusing to replace it, even with --force", .path.display())]
     Refused {
+        /// The destination.
         path: PathBuf,
         /// What the destination is and why that stops the write.
         why: String,
@@ -22,22 +26,33 @@ pub enum FileError {
     },
     /// A special file that cannot take the write now (a FIFO nobody reads).
     #[error("{}: {why}", .path.display())]
-    Special { path: PathBuf, why: String },
+    Special {
+        /// The special file.
+        path: PathBuf,
+        /// Why it cannot take the write.
+        why: String,
+    },
     /// An input larger than its limit (`limits`).
     #[error(
         "{}: larger than {limit} bytes, the limit for {what} (see docs/src/files-and-safety.md)",
         .path.display()
     )]
     TooLarge {
+        /// The input.
         path: PathBuf,
+        /// What the input is ("a model file").
         what: &'static str,
+        /// The limit, bytes.
         limit: u64,
     },
     /// An operating-system error.
     #[error("{}: cannot {action}: {source}", .path.display())]
     Io {
+        /// The file or folder acted on.
         path: PathBuf,
+        /// What was being done ("create", "rename into").
         action: &'static str,
+        /// The operating system's error.
         #[source]
         source: std::io::Error,
     },

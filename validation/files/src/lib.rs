@@ -30,6 +30,7 @@
 //! 8. **Inputs are read within a limit** ([`read_limited`], [`limits`]): a file larger than
 //!    its limit, or a device that never ends, is an error naming the file and the limit, and
 //!    memory is reserved fallibly (no abort under a memory limit).
+#![warn(missing_docs)]
 
 mod append;
 mod dir;

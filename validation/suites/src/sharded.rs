@@ -59,7 +59,7 @@ pub fn standard_range(first_seed: u64) -> Vec<Case> {
 /// thread (3-10 s here: a delay the diagnosis must name, saturation and pendulum coupling the
 /// seed's structure carries, two clean robots). Replace with the diagnosis's 12-draw CI subset
 /// when it exists.
-pub const CI_SEEDS: [u64; 5] = [1, 4, 9, 43, 44];
+pub const CI_SEEDS: [u64; 5] = [1, 4, 9, 209, 210];
 
 /// Where each held-out range starts: ranges are this many seeds apart.
 pub const HELD_OUT_STRIDE: u64 = 10_000;
@@ -319,8 +319,9 @@ mod tests {
         assert_eq!(ci.iter().map(|c| c.seed).collect::<Vec<_>>(), CI_SEEDS);
         assert_eq!(ci[0].scenario, "single:time_delay");
         assert_eq!(ci[3].class, Class::Clean);
+        assert_eq!(ci[4].class, Class::Clean);
         let dev = range_cases(Range::Development, None).unwrap();
-        assert_eq!(dev.len(), 60);
+        assert_eq!(dev.len(), Composition::RANGE.draws());
         let spent = spent_ranges().unwrap();
         let e = range_cases(Range::HeldOut, Some(spent[0] + 5))
             .unwrap_err()

@@ -6,6 +6,7 @@
 //! every record drifts at that record's rate, drawn from the model's `sensor_drift.rate_seed`
 //! and `k` (a normal law of mean `rate` and standard deviation `rate_spread`; see
 //! `zmp_models::effects::sensor_drift`).
+#![warn(missing_docs)]
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
