@@ -312,6 +312,7 @@ fn range_cases_for_merge(range: Range, first: Option<u64>, job: &Job) -> Result<
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::indep::Class;
 
     #[test]
     fn ranges_name_their_draws_and_refuse_a_spent_held_out_range() {
