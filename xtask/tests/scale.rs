@@ -35,11 +35,12 @@ fn unit_files(dir: &Path) -> Vec<String> {
     v
 }
 
+/// The CI range's unit files (`zmp_suites::sharded::CI_SEEDS`), in file-name order.
 const CI_UNITS: [&str; 5] = [
     "draw-1.json",
+    "draw-209.json",
+    "draw-210.json",
     "draw-4.json",
-    "draw-43.json",
-    "draw-44.json",
     "draw-9.json",
 ];
 
@@ -54,6 +55,12 @@ fn one_process() -> &'static BTreeMap<&'static str, Vec<u8>> {
             xtask(&["suite", "--range", "ci", "--out", o], d.path()),
             "suite",
         );
+        let mut expected: Vec<String> = zmp_suites::sharded::CI_SEEDS
+            .iter()
+            .map(|s| format!("draw-{s}.json"))
+            .collect();
+        expected.sort();
+        assert_eq!(expected, CI_UNITS);
         assert_eq!(unit_files(&out), CI_UNITS);
         let m = merged(&out);
         let table = String::from_utf8_lossy(&m["table.md"]).into_owned();
@@ -217,16 +224,16 @@ fn ray_local_cluster_with_a_killed_worker_merges_to_the_one_process_files() {
         .stderr(std::fs::File::create(d.path().join("driver.err")).unwrap())
         .spawn()
         .unwrap();
-    // Shard 4/4 runs draw-43 then draw-44, one at a time (--cpus-per-task 1): once draw-43's
+    // Shard 4/4 runs draw-209 then draw-210, one at a time (--cpus-per-task 1): once draw-209's
     // file is written, kill the Ray worker running that shard, mid-run.
     let started = std::time::Instant::now();
     let mut killed = None;
     while killed.is_none() && started.elapsed().as_secs() < 600 {
-        if out.join("units/draw-43.json").is_file() {
+        if out.join("units/draw-209.json").is_file() {
             let shard = processes_with(&[env!("CARGO_BIN_EXE_xtask"), "--shard", "4/4"]);
             let worker = shard.first().and_then(|&p| parent(p));
             let Some(worker) = worker else {
-                panic!("shard 4/4 ended before it could be killed (draw-44 took under 50 ms?)");
+                panic!("shard 4/4 ended before it could be killed (draw-210 took under 50 ms?)");
             };
             let k = Command::new("kill")
                 .args(["-9", &worker.to_string()])
