@@ -55,9 +55,10 @@ fn small_campaign_is_identified_and_its_delay_diagnosed() {
         .and_then(|v| v.trim_end_matches(',').parse().ok())
         .unwrap_or_else(|| panic!("no a11 in {out:?}"));
     assert!((0.5..1.0).contains(&a11), "a11 = {a11}: {out}");
-    // The demo's hidden robot: the diagnosis names the servo latency first. On these 16 records
-    // (sweep to 15 rad/s) a sensor low-pass fits as well at the 1 % level, so the verdict may
-    // be the honest `ambiguous` with the delay as the best structure's first effect.
+    // The demo's hidden robot (a 40 ms servo latency and a ZMP sensor drifting on y): the
+    // diagnosis names the latency first. On these 16 records (sweep to 15 rad/s) a sensor
+    // low-pass fits as well at the 1 % level, so the verdict may be the honest `ambiguous`
+    // with the delay as the best structure's first effect.
     let (out, _) = run(exe, &["diagnose", d]);
     assert!(
         [

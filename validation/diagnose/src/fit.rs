@@ -218,7 +218,7 @@ pub fn fit_starts(starts: &[Start], obs: &[&Observation], r: &DataRange) -> Opti
         .take(KEEP)
         .filter_map(|(_, (s, own))| fit_lm(s, own, obs, ITERS_SHORT, 0))
         .min_by(|a, b| a.cost.total_cmp(&b.cost))?;
-    Some(joint(best, obs, r, 0))
+    Some(joint(best, obs, r, DESCENT_FACTOR * ITERS_JOINT))
 }
 
 /// The chi-square of `spec` on `obs` (`None` when it cannot be evaluated).

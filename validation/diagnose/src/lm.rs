@@ -11,8 +11,8 @@ pub struct Bounded {
 }
 
 /// Minimises `|r(theta)|^2` in at most `max_iter` iterations, and up to `extra` more while the
-/// cost still falls by more than 1 % over [`DESCENT_WINDOW`] iterations (a fit in a long
-/// curved valley descends steadily but slowly). `r` returns `None` for parameters it cannot
+/// cost still falls by more than a statistically meaningful amount ([`still_descending`]: a
+/// fit in a long curved valley descends steadily but slowly). `r` returns `None` for parameters it cannot
 /// evaluate (treated as a failed step). Once `stop()` says so (a time limit), the fit ends
 /// with the best parameters so far: checked before each iteration and where `r` fails while
 /// the Jacobian is formed (`r` may fail because of the limit). Returns the best parameters,
@@ -40,7 +40,7 @@ pub fn minimise(
     // The cost after each iteration, for the descent past `max_iter`.
     let mut costs = vec![cost];
     for iter in 0..max_iter + extra {
-        if (iter >= max_iter && !still_descending(&costs)) || stop() {
+        if (iter >= max_iter && !still_descending(&costs, res.len(), n)) || stop() {
             break;
         }
         let m = res.len();
@@ -105,11 +105,21 @@ pub fn minimise(
 /// Iterations over which [`still_descending`] measures the descent.
 pub const DESCENT_WINDOW: usize = 5;
 
-/// Whether the cost (after each iteration, `costs`) fell by more than 1 % over the last
-/// [`DESCENT_WINDOW`] iterations.
-fn still_descending(costs: &[f64]) -> bool {
+/// Smallest fall of the chi-square per iteration, in units of the mismatch factor, that keeps
+/// a fit going past its iteration count: a tenth of one (a difference of 0.1 in a chi-square is
+/// no evidence for anything; Press et al., *Numerical Recipes*, section 15.5).
+pub const NEGLIGIBLE_CHI2: f64 = 0.1;
+
+/// Whether the cost (a chi-square of `m` whitened residuals in `n` parameters, after each
+/// iteration: `costs`) fell over the last [`DESCENT_WINDOW`] iterations by more than
+/// [`NEGLIGIBLE_CHI2`] per iteration, scaled by the mismatch factor `cost / (m - n)` (at least
+/// one). A fit cut off while it still falls by more than that would credit the next structure,
+/// which starts from it, with the descent it did not finish.
+fn still_descending(costs: &[f64], m: usize, n: usize) -> bool {
     let done = costs.len() - 1;
-    done >= DESCENT_WINDOW && costs[done - DESCENT_WINDOW] > 1.01 * costs[done]
+    let c = (costs[done] / (m as f64 - n as f64).max(1.0)).max(1.0);
+    done >= DESCENT_WINDOW
+        && costs[done - DESCENT_WINDOW] - costs[done] > DESCENT_WINDOW as f64 * NEGLIGIBLE_CHI2 * c
 }
 
 fn finish(theta: Vec<f64>, cost: f64, jtj: &DMatrix<f64>, m: usize) -> (Vec<f64>, f64, Vec<f64>) {
