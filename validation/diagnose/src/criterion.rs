@@ -27,6 +27,21 @@
 //! campaign differ by less than `2 sqrt(c) z` standard deviations in all can never be
 //! separated by it: the records do not decide between them, and new records where they part
 //! would (`words::distinguish`).
+//!
+//! **The size of the difference.** Cox's `z` takes the residual along `delta` for noise of
+//! variance `c`. Where the best model leaves a misfit that is not noise, the misfit has a
+//! direction, and two predictions a hair apart along it give a large `z` on a chi-square
+//! difference of a thousandth (a force limit that barely acts, a drift rate of zero). So the
+//! difference itself must also be one that a likelihood-ratio test of one added parameter at
+//! the same level would accept, `D / c > z^2` (a chi-square of one degree of freedom at `2
+//! alpha/m` is the square of the one-sided normal quantile at `alpha/m`). The statistic is
+//!
+//! ```text
+//! z_eff = min(z, sign(D) sqrt(|D| / c))
+//! ```
+//!
+//! against the same threshold: both tests at level `alpha/m` must reject, so their
+//! intersection is a test at that level too (Berger's intersection-union test).
 
 use crate::measure::{aggregate, predict, score, whitened, RecordScore};
 use crate::observe::Observation;
@@ -148,7 +163,8 @@ pub struct Comparison {
     pub difference: f64,
     /// `|r_B - r_A|`: how far apart the two predictions are, in noise standard deviations.
     pub distance: f64,
-    /// `difference / (2 sqrt(c) distance)` (0 for identical predictions).
+    /// `min(difference / (2 sqrt(c) distance), sign(difference) sqrt(|difference| / c))`: the
+    /// smaller of Cox's statistic and the likelihood ratio's (0 for identical predictions).
     pub z: f64,
 }
 
@@ -169,8 +185,11 @@ pub fn compare(a: &HeldOut, b: &HeldOut, c: f64) -> Comparison {
         .flat_map(|(x, y)| x.iter().zip(y).map(|(p, q)| (q - p) * (q - p)))
         .sum::<f64>()
         .sqrt();
+    let c = c.max(1.0);
     let z = if distance > 0.0 {
-        difference / (2.0 * c.max(1.0).sqrt() * distance)
+        let cox = difference / (2.0 * c.sqrt() * distance);
+        let lr = difference.signum() * (difference.abs() / c).sqrt();
+        cox.min(lr)
     } else {
         0.0
     };
@@ -330,6 +349,29 @@ pub(crate) mod tests {
         assert!((compare(&child, &parent, 2.0).z * 2f64.sqrt() - c.z).abs() < 1e-9);
         // Identical predictions: no difference at any level, either way.
         assert_eq!(compare(&parent, &parent, 1.0).z, 0.0);
+    }
+
+    /// A misfit that is not noise (every record missed by 5 standard deviations the same way,
+    /// the mismatch factor about 26) and a child whose predictions move a thousandth of a
+    /// standard deviation along it: Cox's statistic alone is large (the residual along that
+    /// direction is the misfit, not noise of variance c), the chi-square difference is a
+    /// few hundredths of c, and the criterion does not take it. Moved by one standard deviation, the
+    /// child removes a fifth of the misfit and passes.
+    #[test]
+    fn a_hair_along_a_systematic_misfit_is_not_an_effect() {
+        let noise = normals(108, 11);
+        let parent: Vec<f64> = noise.iter().map(|e| e + 5.0).collect();
+        let c = parent.iter().map(|x| x * x).sum::<f64>() / 108.0;
+        let moved = |by: f64| held(parent.iter().map(|r| r - by).collect());
+        let hair = compare(&moved(1e-3), &held(parent.clone()), c);
+        let cox = hair.difference / (2.0 * c.sqrt() * hair.distance);
+        assert!(cox > threshold(100), "{hair:?}");
+        assert!(
+            hair.difference / c < 0.1 && !hair.better(threshold(100)),
+            "{hair:?}"
+        );
+        let step = compare(&moved(1.0), &held(parent), c);
+        assert!(step.better(threshold(100)), "{step:?}");
     }
 
     /// The folds alternate at every frequency and over frequencies.

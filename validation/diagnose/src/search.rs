@@ -28,6 +28,8 @@ use crate::structure::{Candidate, Structure};
 use std::collections::BTreeMap;
 use zmp_models::ModelSpec;
 
+pub mod nested;
+
 /// Effects a structure adds at most.
 pub const MAX_EFFECTS: usize = 4;
 /// Structures of a level the beam goes on from.
@@ -191,6 +193,7 @@ pub fn search(
             level = pairs.clone();
         }
         score_all(&mut nodes, &level, obs, &r, threads, progress);
+        nested::refresh_parents(&mut nodes, &level, obs, &r, threads, z_crit);
         if zmp_campaign::par::past_deadline() {
             cut_short = true;
             break;
@@ -263,7 +266,7 @@ fn valid(s: &Structure) -> bool {
 
 /// The mismatch factor of the structures scored: the best-predicting one's held-out
 /// chi-square per component, at least 1 (`criterion`).
-fn mismatch(nodes: &BTreeMap<Structure, Node>) -> f64 {
+pub(super) fn mismatch(nodes: &BTreeMap<Structure, Node>) -> f64 {
     nodes
         .values()
         .map(|n| n.held.mismatch())

@@ -198,7 +198,10 @@ fn designed_records_decide_a_delay_beside_a_play_on_the_virtual_robot() {
         .total_sigma
         .powi(2);
     let ratio = gain_after / mismatch_after / for_drawn;
-    assert!(ratio > 0.5, "{gain_after} / {mismatch_after} against {for_drawn}");
+    assert!(
+        ratio > 0.5,
+        "{gain_after} / {mismatch_after} against {for_drawn}"
+    );
     let fitted_delay = Axis::BOTH
         .iter()
         .map(|a| {

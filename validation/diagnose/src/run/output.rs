@@ -28,7 +28,7 @@ impl Diagnosis {
             "set": self.alternatives,
             "residual": self.residual,
             "criterion": {
-                "statistic": "z = (held-out chi2(B) - chi2(A)) / (2 sqrt(c) |r_B - r_A|): Cox's test of two structures on their held-out predictions, c the best structure's mismatch factor",
+                "statistic": "z = min(D / (2 sqrt(c) |r_B - r_A|), sign(D) sqrt(|D| / c)), D = held-out chi2(B) - chi2(A): Cox's test of two structures on their held-out predictions and the likelihood ratio of one added parameter, both at the level, c the best structure's mismatch factor",
                 "alpha": ALPHA,
                 "structures_compared": self.compared,
                 "z_threshold": self.z_crit,
