@@ -196,7 +196,7 @@ fn device_nodes_stay_what_they_are(d: &Path, dev: &Path) {
         .unwrap()
         .file_type()
         .is_block_device());
-    let mut names: Vec<String> = std::fs::read_dir(&dev)
+    let mut names: Vec<String> = std::fs::read_dir(dev)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
