@@ -4,14 +4,15 @@ use crate::simulate::load_model;
 use crate::simulate::progress_bar;
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
-use zmp_campaign::{read_campaign, read_manifest};
+use zmp_campaign::{read_campaign, read_manifest, Campaign, Manifest};
 use zmp_files::{check_file, claim_dir, Kind};
 use zmp_identify::{
     analyse_folder, analyse_records, identify_analysed, identify_with_progress, summary_json,
-    write_model, Identification, IdentifyOptions,
+    write_model, Identification, IdentifyOptions, RecordFit,
 };
+use zmp_models::robust::RobustAnalysis;
 use zmp_models::EffectKind;
-use zmp_report::identify::write_report;
+use zmp_report::identify::{write_report, ReportFiles};
 
 /// The default model path: `<campaign>/../<campaign-folder-name>-identified.toml`.
 pub fn default_out(campaign: &Path) -> PathBuf {
@@ -68,8 +69,7 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
     }
     let start_model = a.model.map(load_model).transpose()?;
     let quiet = json;
-    let reading = || format!("reading campaign {}", campaign.display());
-    let manifest = read_manifest(campaign).with_context(reading)?;
+    let manifest = read_manifest(campaign).with_context(|| reading(campaign))?;
     let opts = IdentifyOptions {
         given_bandwidth: a.bandwidth,
         campaign_path: Some(campaign.to_path_buf()),
@@ -77,20 +77,8 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
         include_saturation: a.include_saturation,
         ..IdentifyOptions::default()
     };
-    // Each record is analysed as it is read and its columns dropped (the campaign's data is
-    // never all in memory), unless a starting model's refit below needs the data: then the
-    // campaign is read once and kept.
-    let pb = progress_bar(manifest.records.len() as u64, "reading and fitting", quiet);
-    let progress = |d: usize| pb.set_position(d as u64);
-    let (fits, camp) = if a.model.is_some() {
-        let camp = read_campaign(campaign).with_context(reading)?;
-        (analyse_records(&camp, &opts, &progress), Some(camp))
-    } else {
-        let fits = analyse_folder(campaign, &manifest, &opts, &progress).with_context(reading)?;
-        (fits, None)
-    };
-    pb.finish_and_clear();
-    let ident = identify_analysed(fits, manifest.name.clone(), &opts)?;
+    let (fits, camp) = analyse(a, &manifest, &opts, quiet)?;
+    let mut ident = identify_analysed(fits, manifest.name.clone(), &opts)?;
     // A model that names effects beyond the core: those are refitted with it.
     let dopts = zmp_diagnose::DiagnoseOptions {
         campaign_path: campaign.display().to_string(),
@@ -99,23 +87,9 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
             .map_or_else(|| out.display().to_string(), |m| m.display().to_string()),
         ..Default::default()
     };
-    let mut ident = ident;
     let mut change = "identified".to_string();
     if let Some(camp) = &camp {
-        let pb = progress_bar(1, "refitting", quiet);
-        let refit = zmp_diagnose::augment::refit_structure(camp, &ident.model, &dopts)?;
-        pb.finish_and_clear();
-        if let Some(r) = refit {
-            if !quiet {
-                println!(
-                    "refitted the structure the model names: error {:.4} -> {:.4} (noise floor {:.4})",
-                    r.error_before, r.error_after, r.noise_floor
-                );
-                for (k, (v, se)) in &r.parameters {
-                    println!("  {k:<40} {v:>12.6} +- {se:.3e}");
-                }
-            }
-            ident.model = r.spec;
+        if refit_named_structure(camp, &mut ident, &dopts, quiet)? {
             change = "refit".into();
         }
     }
@@ -146,43 +120,110 @@ pub fn identify(a: &IdentifyArgs) -> Result<Identification> {
         }
         println!("{}", serde_json::to_string_pretty(&s)?);
     } else {
-        println!(
-            "{} records, {} used; reduced chi-square {:.2}",
-            ident.records.len(),
-            ident.used().count(),
-            ident.reduced_chi2
-        );
-        for p in ident.parameters() {
-            println!(
-                "  {:<32} {:>12.6} +- {:<10.3e}{}",
-                p.name,
-                p.value,
-                p.stderr,
-                if p.estimated { "" } else { " (given)" }
-            );
-        }
-        for w in &ident.warnings {
-            println!("warning: {w}");
-        }
-        if let Some(l) = ident.saturation.limit {
-            if !ident.model.has(EffectKind::AccelerationSaturation) {
-                println!(
-                    "acceleration saturation detected (limit about {l:.3} m/s2); the model file stays linear: \
-                     `cargo xtask diagnose` scores it, or pass --include-saturation"
-                );
-            }
-        }
-        println!(
-            "robust stability with the seed's controller ({}): {}",
-            robust.controller,
-            robust.summary()
-        );
-        println!("model -> {}", out.display());
-        if let Some(f) = &files {
-            println!("report -> {}", f.html.display());
-        }
+        print_summary(&ident, &robust, &out, files.as_ref());
     }
     Ok(ident)
+}
+
+/// The context of an error reading the campaign.
+fn reading(campaign: &Path) -> String {
+    format!("reading campaign {}", campaign.display())
+}
+
+/// Steps 1-3 on every record, with progress: each record is analysed as it is read and its
+/// columns dropped (the campaign's data is never all in memory), unless a starting model's
+/// refit needs the data: then the campaign is read once and kept (and returned).
+fn analyse(
+    a: &IdentifyArgs,
+    manifest: &Manifest,
+    opts: &IdentifyOptions,
+    quiet: bool,
+) -> Result<(Vec<RecordFit>, Option<Campaign>)> {
+    let campaign = a.campaign;
+    let pb = progress_bar(manifest.records.len() as u64, "reading and fitting", quiet);
+    let progress = |d: usize| pb.set_position(d as u64);
+    let (fits, camp) = if a.model.is_some() {
+        let camp = read_campaign(campaign).with_context(|| reading(campaign))?;
+        (analyse_records(&camp, opts, &progress), Some(camp))
+    } else {
+        let fits = analyse_folder(campaign, manifest, opts, &progress)
+            .with_context(|| reading(campaign))?;
+        (fits, None)
+    };
+    pb.finish_and_clear();
+    Ok((fits, camp))
+}
+
+/// Refits the effects the identified model names beyond the core on `camp` (and says so
+/// unless `quiet`); whether there were any.
+fn refit_named_structure(
+    camp: &Campaign,
+    ident: &mut Identification,
+    dopts: &zmp_diagnose::DiagnoseOptions,
+    quiet: bool,
+) -> Result<bool> {
+    let pb = progress_bar(1, "refitting", quiet);
+    let refit = zmp_diagnose::augment::refit_structure(camp, &ident.model, dopts)?;
+    pb.finish_and_clear();
+    let Some(r) = refit else {
+        return Ok(false);
+    };
+    if !quiet {
+        println!(
+            "refitted the structure the model names: error {:.4} -> {:.4} (noise floor {:.4})",
+            r.error_before, r.error_after, r.noise_floor
+        );
+        for (k, (v, se)) in &r.parameters {
+            println!("  {k:<40} {v:>12.6} +- {se:.3e}");
+        }
+    }
+    ident.model = r.spec;
+    Ok(true)
+}
+
+/// The identification for a reader: records used, parameters with standard errors,
+/// warnings, a detected acceleration limit, the robust stability, where the files went.
+fn print_summary(
+    ident: &Identification,
+    robust: &RobustAnalysis,
+    out: &Path,
+    files: Option<&ReportFiles>,
+) {
+    println!(
+        "{} records, {} used; reduced chi-square {:.2}",
+        ident.records.len(),
+        ident.used().count(),
+        ident.reduced_chi2
+    );
+    for p in ident.parameters() {
+        println!(
+            "  {:<32} {:>12.6} +- {:<10.3e}{}",
+            p.name,
+            p.value,
+            p.stderr,
+            if p.estimated { "" } else { " (given)" }
+        );
+    }
+    for w in &ident.warnings {
+        println!("warning: {w}");
+    }
+    if let Some(l) = ident.saturation.limit {
+        if !ident.model.has(EffectKind::AccelerationSaturation) {
+            println!(
+                "acceleration saturation detected (limit about {l:.3} m/s2); the model file stays linear: \
+                 `cargo xtask diagnose` scores it, or pass --include-saturation"
+            );
+        }
+    }
+    println!(
+        "robust stability with the seed's controller ({}): {}",
+        robust.controller,
+        robust.summary()
+    );
+    println!("model -> {}", out.display());
+    if let Some(f) = files {
+        println!("report -> {}", f.html.display());
+    }
 }
 
 /// A failed ledger entry as the run's error: the model stays written, and the message names

@@ -6,6 +6,7 @@
 mod support;
 
 use std::os::unix::fs::FileTypeExt;
+use std::path::Path;
 use std::process::Command;
 use support::{campaign, delayed_model, fails, hidden, is_root, ok, xtask};
 
@@ -65,7 +66,20 @@ fn defect_2_special_files_are_written_into_and_links_followed() {
     let tmp = tempfile::tempdir().unwrap();
     let d = tmp.path();
     campaign(d, "camp", None);
-    // A symbolic link to a model: written through with --force, the link kept.
+    links_are_followed(d);
+    let dev = d.join("dev");
+    std::fs::create_dir(&dev).unwrap();
+    a_fifo_gets_the_model(d, &dev);
+    if !is_root() {
+        eprintln!("not root: no device node can be made; the FIFO and the links were checked");
+        return;
+    }
+    device_nodes_stay_what_they_are(d, &dev);
+}
+
+/// A symbolic link to a model is written through with --force, the link kept; a link to a
+/// file of another kind is refused even with --force, the file kept.
+fn links_are_followed(d: &Path) {
     ok(
         xtask(&["identify", "camp", "--out", "real.toml"], d),
         "identify",
@@ -101,10 +115,10 @@ fn defect_2_special_files_are_written_into_and_links_followed() {
         std::fs::read_to_string(d.join("notes.txt")).unwrap(),
         "mine"
     );
+}
 
-    // A FIFO with a reader gets the model and stays a FIFO.
-    let dev = d.join("dev");
-    std::fs::create_dir(&dev).unwrap();
+/// A FIFO with a reader gets the model and stays a FIFO, no ledger beside it.
+fn a_fifo_gets_the_model(d: &Path, dev: &Path) {
     let fifo = dev.join("pipe");
     assert!(Command::new("mkfifo")
         .arg(&fifo)
@@ -137,11 +151,11 @@ fn defect_2_special_files_are_written_into_and_links_followed() {
         !dev.join("zmp-ledger.jsonl").exists(),
         "a ledger beside a FIFO"
     );
+}
 
-    if !is_root() {
-        eprintln!("not root: no device node can be made; the FIFO and the links were checked");
-        return;
-    }
+/// A character device (a null device of our own) is written into and stays one, no ledger
+/// beside it; a block device node is refused (nothing is opened).
+fn device_nodes_stay_what_they_are(d: &Path, dev: &Path) {
     // A null device of our own (major 1, minor 3), as `--out /dev/null --force` meets it.
     let null = dev.join("null");
     assert!(Command::new("mknod")
@@ -182,7 +196,7 @@ fn defect_2_special_files_are_written_into_and_links_followed() {
         .unwrap()
         .file_type()
         .is_block_device());
-    let mut names: Vec<String> = std::fs::read_dir(&dev)
+    let mut names: Vec<String> = std::fs::read_dir(dev)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();

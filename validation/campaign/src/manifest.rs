@@ -14,7 +14,45 @@ use zmp_models::Axis;
 /// index and the key, and says what was expected.
 pub fn parse_manifest(text: &str, file: &Path) -> Result<Manifest, CampaignError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let table: toml::Table = toml::from_str(text).map_err(|e| {
+    let table = parse_toml(text, file)?;
+    let err = |field: &str, message: String| invalid(file, None, field, message);
+    check_format(&table, file)?;
+    let opt_string = |key: &str| -> Result<Option<String>, CampaignError> {
+        match table.get(key) {
+            None => Ok(None),
+            Some(Value::String(s)) => Ok(Some(s.clone())),
+            Some(v) => Err(err(key, format!("must be a string, got {}", show(v)))),
+        }
+    };
+    let name = opt_string("name")?;
+    let robot = opt_string("robot")?;
+    let sample_rate_hz = match table.get("sample_rate_hz") {
+        None => None,
+        Some(v) => Some(positive(v).map_err(|m| err("sample_rate_hz", m))?),
+    };
+    let records = records_array(&table, file)?;
+    let mut metas = Vec::with_capacity(records.len());
+    // Each record's file, normalised: a record listed twice would be counted twice.
+    let mut files: HashMap<PathBuf, usize> = HashMap::with_capacity(records.len());
+    for (i, value) in records.iter().enumerate() {
+        metas.push(parse_record(i, value, file, &mut files)?);
+    }
+    Ok(Manifest {
+        name,
+        robot,
+        sample_rate_hz,
+        records: metas,
+    })
+}
+
+/// A manifest error in `file` at record `record` (if any) and key `field`.
+fn invalid(file: &Path, record: Option<usize>, field: &str, message: String) -> CampaignError {
+    CampaignError::invalid(Part::Manifest, file, None, record, Some(field), message)
+}
+
+/// The TOML table of the manifest, or the syntax error with its line and column.
+fn parse_toml(text: &str, file: &Path) -> Result<toml::Table, CampaignError> {
+    toml::from_str(text).map_err(|e| {
         let (line, col) = match e.span() {
             Some(span) => line_col(text, span.start),
             None => (None, None),
@@ -28,168 +66,145 @@ pub fn parse_manifest(text: &str, file: &Path) -> Result<Manifest, CampaignError
             None,
             format!("TOML syntax error{at}: {}", e.message().trim_end()),
         )
-    })?;
-    let err = |record: Option<usize>, field: &str, message: String| {
-        CampaignError::invalid(Part::Manifest, file, None, record, Some(field), message)
-    };
+    })
+}
 
+/// `format` must be present and exactly this reader's [`FORMAT`].
+fn check_format(table: &toml::Table, file: &Path) -> Result<(), CampaignError> {
+    let err = |message: String| Err(invalid(file, None, "format", message));
     match table.get("format") {
-        None => {
-            return Err(err(
-                None,
-                "format",
-                format!("missing required key (expected format = \"{FORMAT}\" as the first line)"),
-            ))
-        }
-        Some(Value::String(s)) if s == FORMAT => {}
-        Some(Value::String(s)) => {
-            return Err(err(
-                None,
-                "format",
-                format!("unsupported format {s:?}: this reader reads exactly \"{FORMAT}\""),
-            ))
-        }
-        Some(v) => {
-            return Err(err(
-                None,
-                "format",
-                format!("must be the string \"{FORMAT}\", got {}", show(v)),
-            ))
-        }
+        None => err(format!(
+            "missing required key (expected format = \"{FORMAT}\" as the first line)"
+        )),
+        Some(Value::String(s)) if s == FORMAT => Ok(()),
+        Some(Value::String(s)) => err(format!(
+            "unsupported format {s:?}: this reader reads exactly \"{FORMAT}\""
+        )),
+        Some(v) => err(format!("must be the string \"{FORMAT}\", got {}", show(v))),
     }
+}
 
-    let opt_string = |key: &str| -> Result<Option<String>, CampaignError> {
-        match table.get(key) {
-            None => Ok(None),
-            Some(Value::String(s)) => Ok(Some(s.clone())),
-            Some(v) => Err(err(None, key, format!("must be a string, got {}", show(v)))),
-        }
-    };
-    let name = opt_string("name")?;
-    let robot = opt_string("robot")?;
-    let sample_rate_hz = match table.get("sample_rate_hz") {
-        None => None,
-        Some(v) => Some(positive(v).map_err(|m| err(None, "sample_rate_hz", m))?),
-    };
-
+/// The `[[records]]` array: present, an array, not empty.
+fn records_array<'t>(table: &'t toml::Table, file: &Path) -> Result<&'t Vec<Value>, CampaignError> {
+    let err = |message: String| invalid(file, None, "records", message);
     let records = match table.get("records") {
         None => {
             return Err(err(
-                None,
-                "records",
-                "missing: expected at least one [[records]] table".into(),
+                "missing: expected at least one [[records]] table".into()
             ))
         }
         Some(Value::Array(a)) => a,
         Some(v) => {
-            return Err(err(
-                None,
-                "records",
-                format!("must be an array of tables ([[records]]), got {}", show(v)),
-            ))
+            return Err(err(format!(
+                "must be an array of tables ([[records]]), got {}",
+                show(v)
+            )))
         }
     };
     if records.is_empty() {
         return Err(err(
+            "is empty: expected at least one [[records]] table".into()
+        ));
+    }
+    Ok(records)
+}
+
+/// Record `i` of the manifest: its file (relative, not listed before: `files` holds the
+/// normalised files seen so far), excited axis, frequency (rad/s), amplitude (m) and
+/// operating point (m).
+fn parse_record(
+    i: usize,
+    value: &Value,
+    file: &Path,
+    files: &mut HashMap<PathBuf, usize>,
+) -> Result<RecordMeta, CampaignError> {
+    let Value::Table(rec) = value else {
+        return Err(CampaignError::invalid(
+            Part::Manifest,
+            file,
             None,
-            "records",
-            "is empty: expected at least one [[records]] table".into(),
+            Some(i),
+            None,
+            format!(
+                "must be a table (write it as [[records]]), got {}",
+                show(value)
+            ),
+        ));
+    };
+    let err = |field: &str, message: String| invalid(file, Some(i), field, message);
+    let required = |key: &str| {
+        rec.get(key)
+            .ok_or_else(|| err(key, "missing required key".to_owned()))
+    };
+
+    let file_value = required("file")?;
+    let Value::String(file_str) = file_value else {
+        return Err(err(
+            "file",
+            format!(
+                "must be a string (a path relative to the campaign folder), got {}",
+                show(file_value)
+            ),
+        ));
+    };
+    let normalised = check_relative_path(file_str).map_err(|m| err("file", m))?;
+    if let Some(j) = files.insert(normalised, i) {
+        return Err(err(
+            "file",
+            format!(
+                "{file_str:?} is also the file of records[{j}]: a record listed twice would \
+                 be counted twice (its data would weigh double in every fit)"
+            ),
         ));
     }
 
-    let mut metas = Vec::with_capacity(records.len());
-    // Each record's file, normalised: a record listed twice would be counted twice.
-    let mut files: HashMap<PathBuf, usize> = HashMap::with_capacity(records.len());
-    for (i, value) in records.iter().enumerate() {
-        let Value::Table(rec) = value else {
-            return Err(CampaignError::invalid(
-                Part::Manifest,
-                file,
-                None,
-                Some(i),
-                None,
-                format!(
-                    "must be a table (write it as [[records]]), got {}",
-                    show(value)
-                ),
-            ));
-        };
-        let err = |field: &str, message: String| err(Some(i), field, message);
-        let required = |key: &str| {
-            rec.get(key)
-                .ok_or_else(|| err(key, "missing required key".to_owned()))
-        };
-
-        let file_value = required("file")?;
-        let Value::String(file_str) = file_value else {
-            return Err(err(
-                "file",
-                format!(
-                    "must be a string (a path relative to the campaign folder), got {}",
-                    show(file_value)
-                ),
-            ));
-        };
-        let normalised = check_relative_path(file_str).map_err(|m| err("file", m))?;
-        if let Some(j) = files.insert(normalised, i) {
-            return Err(err(
-                "file",
-                format!(
-                    "{file_str:?} is also the file of records[{j}]: a record listed twice would \
-                     be counted twice (its data would weigh double in every fit)"
-                ),
-            ));
-        }
-
-        let excited_value = required("excited")?;
-        let excited = match excited_value {
-            Value::String(s) => Axis::parse(s),
-            _ => None,
-        }
-        .ok_or_else(|| {
-            err(
-                "excited",
-                format!("must be \"x\" or \"y\", got {}", show(excited_value)),
-            )
-        })?;
-
-        let omega = positive(required("omega")?).map_err(|m| err("omega", m))?;
-        let amplitude = positive(required("amplitude")?).map_err(|m| err("amplitude", m))?;
-
-        let op_value = required("operating_point")?;
-        let Value::Table(op) = op_value else {
-            return Err(err(
-                "operating_point",
-                format!(
-                    "must be an inline table {{ x = ..., y = ... }} in m, got {}",
-                    show(op_value)
-                ),
-            ));
-        };
-        let mut operating_point = [0.0; 2];
-        for axis in Axis::BOTH {
-            let key = format!("operating_point.{}", axis.name());
-            let v = op
-                .get(axis.name())
-                .ok_or_else(|| err(&key, "missing required key".to_owned()))?;
-            operating_point[axis.index()] = finite(v).map_err(|m| err(&key, m))?;
-        }
-
-        metas.push(RecordMeta {
-            file: PathBuf::from(file_str),
-            excited,
-            omega,
-            amplitude,
-            operating_point,
-        });
+    let excited_value = required("excited")?;
+    let excited = match excited_value {
+        Value::String(s) => Axis::parse(s),
+        _ => None,
     }
+    .ok_or_else(|| {
+        err(
+            "excited",
+            format!("must be \"x\" or \"y\", got {}", show(excited_value)),
+        )
+    })?;
 
-    Ok(Manifest {
-        name,
-        robot,
-        sample_rate_hz,
-        records: metas,
+    let omega = positive(required("omega")?).map_err(|m| err("omega", m))?;
+    let amplitude = positive(required("amplitude")?).map_err(|m| err("amplitude", m))?;
+    let operating_point = parse_operating_point(required("operating_point")?, &err)?;
+    Ok(RecordMeta {
+        file: PathBuf::from(file_str),
+        excited,
+        omega,
+        amplitude,
+        operating_point,
     })
+}
+
+/// A record's `operating_point = { x = ..., y = ... }`, m; `err` names the record and key.
+fn parse_operating_point(
+    op_value: &Value,
+    err: &impl Fn(&str, String) -> CampaignError,
+) -> Result<[f64; 2], CampaignError> {
+    let Value::Table(op) = op_value else {
+        return Err(err(
+            "operating_point",
+            format!(
+                "must be an inline table {{ x = ..., y = ... }} in m, got {}",
+                show(op_value)
+            ),
+        ));
+    };
+    let mut operating_point = [0.0; 2];
+    for axis in Axis::BOTH {
+        let key = format!("operating_point.{}", axis.name());
+        let v = op
+            .get(axis.name())
+            .ok_or_else(|| err(&key, "missing required key".to_owned()))?;
+        operating_point[axis.index()] = finite(v).map_err(|m| err(&key, m))?;
+    }
+    Ok(operating_point)
 }
 
 /// 1-based line and column of byte `offset` in `text`.

@@ -30,25 +30,7 @@ pub fn identify_analysed(
     if records.iter().all(|r| r.excluded.is_some()) {
         return Err(IdentifyError::NoUsableRecords(warnings.join("; ")));
     }
-    let own: Vec<usize> = records
-        .iter()
-        .filter(|r| {
-            r.components.as_ref().is_some_and(|c| {
-                c.noise
-                    .iter()
-                    .any(|n| n.first.source == crate::NoiseSource::Inconsistent)
-            })
-        })
-        .map(|r| r.index)
-        .collect();
-    if !own.is_empty() {
-        warnings.push(format!(
-            "{}: the first harmonic varies from period to period beyond the campaign's noise \
-             (a response that does not quite repeat: a transient left in the steady state, \
-             impacts, a drift); their standard errors are their own, larger",
-            name_records(&own)
-        ));
-    }
+    warnings.extend(period_variation_warning(&records));
     check_frequency_span(&records)?;
     let factors = start_factors(opts.start_model.as_ref(), &records);
     let ctx = FitContext {
@@ -102,16 +84,9 @@ pub fn identify_analysed(
     if !bw_est {
         warnings.push(bw_note.clone());
     }
-    let p = lm.params;
     let (a, b) = pendulum_parameters(&lm);
-    let bandwidth = Bandwidth {
-        omega_n: p[8],
-        zeta: p[9],
-        omega_n_stderr: if bw_est { lm.stderr[8] } else { 0.0 },
-        zeta_stderr: if bw_est { lm.stderr[9] } else { 0.0 },
-        estimated: bw_est,
-        note: bw_note,
-    };
+    let bandwidth = fitted_bandwidth(&lm, bw_est, bw_note);
+    let p = lm.params;
     let uncertainty = uncertainty_database(&records, &p, &factors);
     let mut ident = Identification {
         campaign_name,
@@ -138,6 +113,43 @@ pub fn identify_analysed(
     };
     ident.model = build_model(&ident, opts)?;
     Ok(ident)
+}
+
+/// The warning naming the records whose first harmonic varies from period to period beyond
+/// the campaign's noise (their standard errors are their own), if any.
+fn period_variation_warning(records: &[RecordFit]) -> Option<String> {
+    let own: Vec<usize> = records
+        .iter()
+        .filter(|r| {
+            r.components.as_ref().is_some_and(|c| {
+                c.noise
+                    .iter()
+                    .any(|n| n.first.source == crate::NoiseSource::Inconsistent)
+            })
+        })
+        .map(|r| r.index)
+        .collect();
+    (!own.is_empty()).then(|| {
+        format!(
+            "{}: the first harmonic varies from period to period beyond the campaign's noise \
+             (a response that does not quite repeat: a transient left in the steady state, \
+             impacts, a drift); their standard errors are their own, larger",
+            name_records(&own)
+        )
+    })
+}
+
+/// The tracking low-pass of the fit (`omega_n` rad/s and `zeta`, parameters 8 and 9), with
+/// standard errors when the data determine it (`estimated`), else zero and the note why.
+fn fitted_bandwidth(lm: &fit::LmResult, estimated: bool, note: String) -> Bandwidth {
+    Bandwidth {
+        omega_n: lm.params[8],
+        zeta: lm.params[9],
+        omega_n_stderr: if estimated { lm.stderr[8] } else { 0.0 },
+        zeta_stderr: if estimated { lm.stderr[9] } else { 0.0 },
+        estimated,
+        note,
+    }
 }
 
 /// One warning per exclusion reason, naming the records it excluded.

@@ -29,6 +29,7 @@
 
 // Index loops read as the matrix algebra they implement.
 #![allow(clippy::needless_range_loop)]
+#![warn(missing_docs)]
 
 mod campaign_fit;
 mod fit;
@@ -67,9 +68,14 @@ pub const POOR_FIT: f64 = 4.0;
 /// absorbed a delay would have been.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct DelayAlternative {
+    /// The pure delay in front of the low-pass, s.
     pub delay_s: f64,
+    /// Natural frequency of the low-pass refitted with the delay, rad/s.
     pub omega_n: f64,
+    /// Damping ratio of the low-pass refitted with the delay (dimensionless).
     pub zeta: f64,
+    /// Reduced chi-square of the fit with the delay (compare with
+    /// [`Identification::reduced_chi2`]).
     pub reduced_chi2: f64,
 }
 
@@ -125,6 +131,7 @@ impl Default for IdentifyOptions {
 pub struct RecordFit {
     /// Index of the record in the campaign.
     pub index: usize,
+    /// The CoM axis whose reference carries the sine (from the manifest).
     pub excited: Axis,
     /// Excitation frequency from the manifest, rad/s.
     pub omega: f64,
@@ -134,6 +141,7 @@ pub struct RecordFit {
     pub amplitude: f64,
     /// Amplitude of the excited reference fitted in the data, m.
     pub input_amplitude: f64,
+    /// CoM operating point `[x, y]` the sine is centred on, from the manifest, m.
     pub operating_point: [f64; 2],
     /// Column of `G` for the excited input: `[G_xj, G_yj]` (output zmp_x, zmp_y).
     #[serde(serialize_with = "ser_complex2")]
@@ -167,9 +175,11 @@ pub struct RecordFit {
 /// when nothing measured it).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct NoisePower {
-    /// m².
+    /// Noise power per sample, m² (`NaN` when unmeasured).
     pub power: f64,
+    /// Effective degrees of freedom of the estimate (0 when unmeasured).
     pub dof: f64,
+    /// Where the estimate comes from.
     pub source: NoiseSource,
 }
 
@@ -195,17 +205,20 @@ pub enum NoiseSource {
 /// pooled powers its variances use.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OutputNoise {
-    /// From this record's periods alone: at its frequency and at three times it.
+    /// From this record's periods alone, at its frequency.
     pub periods_first: NoisePower,
+    /// From this record's periods alone, at three times its frequency.
     pub periods_third: NoisePower,
     /// Residual power per sample in bins near zero frequency, each clear of every harmonic:
     /// `(frequency rad/s, m²)`, two degrees of freedom each.
     pub zero_bins: Vec<(f64, f64)>,
-    /// Pooled over the campaign's records by frequency: at this record's frequency (its first
-    /// harmonic's noise), at three times it (its third harmonic's), and averaged over
-    /// `trend_omegas` (its trend's).
+    /// Pooled over the campaign's records by frequency, at this record's frequency: its
+    /// first harmonic's noise.
     pub first: NoisePower,
+    /// Pooled likewise at three times this record's frequency: its third harmonic's noise.
     pub third: NoisePower,
+    /// Pooled likewise and averaged over [`SteadyComponents::trend_omegas`]: its trend's
+    /// noise.
     pub trend: NoisePower,
 }
 
@@ -213,9 +226,11 @@ pub struct OutputNoise {
 /// the noise they carry: what the diagnosis compares with a model.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SteadyComponents {
-    /// Steady-state window: first and last sample time, s (the record's own clock).
+    /// Time of the steady-state window's first sample, s (the record's own clock).
     pub t0: f64,
+    /// Time of the steady-state window's last sample, s.
     pub t1: f64,
+    /// Samples in the window.
     pub samples: usize,
     /// Whole periods in the window.
     pub periods: usize,
@@ -224,8 +239,9 @@ pub struct SteadyComponents {
     /// First-harmonic phasor of the excited input (sin-referenced, phase from the window's
     /// start), m.
     pub u1: Complex64,
-    /// First- and third-harmonic phasors of `[zmp_x, zmp_y]`, same reference, m.
+    /// First-harmonic phasors of `[zmp_x, zmp_y]`, same reference, m.
     pub y1: [Complex64; 2],
+    /// Third-harmonic phasors of `[zmp_x, zmp_y]`, same reference, m.
     pub y3: [Complex64; 2],
     /// Linear trend of each output over the window, m/s.
     pub trend: [f64; 2],
@@ -242,9 +258,11 @@ pub struct SteadyComponents {
     pub trend_omegas: [f64; record_analysis::TREND_NODES.len()],
     /// The noise of each output.
     pub noise: [OutputNoise; 2],
-    /// Variance factors of the fit: inverse normal matrix at the fundamental's sin and cos
-    /// columns, and at the trend column (1/s²).
+    /// Variance factors of the fit: the inverse normal matrix's diagonal at the
+    /// fundamental's sin and cos columns (dimensionless: a coefficient's variance is the
+    /// noise variance times it).
     pub inv_diag_h1: [f64; 2],
+    /// The inverse normal matrix's diagonal at the trend column, 1/s².
     pub inv_diag_trend: f64,
 }
 
@@ -297,15 +315,25 @@ fn ser_complex2<S: serde::Serializer>(g: &[Complex64; 2], s: S) -> Result<S::Ok,
 
 /// Reasons a record is left out (the strings that [`RecordFit::excluded`] holds).
 pub mod reason {
+    /// The record holds fewer than two periods of its frequency (or fewer than four samples
+    /// a period, or no valid sample period or frequency).
     pub const TOO_SHORT: &str = "shorter than two periods";
+    /// The steady state, once the transient is over, holds fewer than two whole periods.
     pub const NO_STEADY: &str = "fewer than two whole periods of steady state";
+    /// The manifest's amplitude is not positive, the excited reference is constant, or the
+    /// fitted input amplitude is below a thousandth of the manifest's.
     pub const ZERO_AMPLITUDE: &str = "zero amplitude: the excited reference carries no sine";
+    /// A ZMP output never changes.
     pub const CONSTANT_OUTPUT: &str = "constant output (ZMP sensor dead or disconnected?)";
+    /// The input's FFT peak is more than two bins from the manifest's frequency.
     pub const WRONG_FREQUENCY: &str = "the excitation is not at the frequency campaign.toml gives";
+    /// A sample is not finite, or the harmonic regression or its frequency refinement failed.
     pub const BAD_DATA: &str = "the harmonic fit failed (non-finite or degenerate data)";
     /// Past the time limit of the work identification serves (`par::with_deadline`, the
     /// loop's `--time-limit`), the records not yet analysed are left out.
     pub const TIME_LIMIT: &str = "not analysed: the time limit passed before its turn";
+    /// Flagged as saturated: a compressed first-harmonic gain with significant odd
+    /// harmonics; left out of the linear fit.
     pub const SATURATED: &str =
         "acceleration saturation (first-harmonic gain off the linear model, odd harmonics)";
 }
@@ -315,6 +343,8 @@ pub mod reason {
 pub struct Parameter {
     /// Dotted name as in the model file (`pendulum.a11`).
     pub name: String,
+    /// Fitted (or given) value, in the parameter's unit in the model file (`a`: m/m,
+    /// `b`: s², `omega_n`: rad/s, `zeta`: 1, a limit: m/s²).
     pub value: f64,
     /// Standard error (0 for a parameter held fixed).
     pub stderr: f64,
@@ -335,9 +365,13 @@ impl Parameter {
 /// The tracking low-pass found.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Bandwidth {
+    /// Natural frequency of `H = wn^2/(s^2 + 2 zeta wn s + wn^2)`, rad/s.
     pub omega_n: f64,
+    /// Damping ratio of `H` (dimensionless).
     pub zeta: f64,
+    /// Standard error of `omega_n`, rad/s (0 when it was given, not estimated).
     pub omega_n_stderr: f64,
+    /// Standard error of `zeta` (0 when it was given, not estimated).
     pub zeta_stderr: f64,
     /// True if estimated from the data, false if the given value was used.
     pub estimated: bool,
@@ -354,6 +388,7 @@ pub struct Saturation {
     pub harmonic_only: Vec<usize>,
     /// Estimated acceleration limit, m/s².
     pub limit: Option<f64>,
+    /// Standard error of the limit, m/s².
     pub limit_stderr: Option<f64>,
     /// Per flagged record: the demanded CoM acceleration amplitude `A w^2 |H|`, m/s².
     pub demanded_acceleration: Vec<(usize, f64)>,
@@ -362,11 +397,13 @@ pub struct Saturation {
 /// One point of the uncertainty database.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct UncertaintyPoint {
+    /// Frequency, rad/s.
     pub omega: f64,
     /// Largest `|G_meas - G_model|` over the records at this frequency.
     pub additive: f64,
     /// `additive / |G_model|`.
     pub multiplicative: f64,
+    /// Records at this frequency.
     pub records: usize,
 }
 
@@ -375,6 +412,7 @@ pub struct UncertaintyPoint {
 pub struct ChannelUncertainty {
     /// `G11`..`G22`.
     pub channel: String,
+    /// The measured uncertainty per frequency, ascending.
     pub points: Vec<UncertaintyPoint>,
     /// `W = k (s + z)/(s + p)`: `(k, z, p)`.
     pub weight: (f64, f64, f64),
@@ -386,13 +424,19 @@ pub struct Identification {
     /// When the pendulum fit is poor: the same fit with a pure delay in front of the
     /// low-pass, for comparison (reported, not put in the model).
     pub delay_alternative: Option<DelayAlternative>,
+    /// The campaign's `name` in its manifest.
     pub campaign_name: Option<String>,
+    /// Every record's analysis, in campaign order (excluded ones with their reason).
     pub records: Vec<RecordFit>,
-    /// `a[i][j]`, `b[i][j]` with their standard errors.
+    /// The pendulum's static gains `a[i][j]` (m/m), with their standard errors.
     pub a: [[Parameter; 2]; 2],
+    /// The pendulum's acceleration gains `b[i][j]` (s²), with their standard errors.
     pub b: [[Parameter; 2]; 2],
+    /// The tracking low-pass shared by the four channels.
     pub bandwidth: Bandwidth,
+    /// The records flagged as saturated and the acceleration limit found.
     pub saturation: Saturation,
+    /// The multiplicative uncertainty per channel and its weight.
     pub uncertainty: Vec<ChannelUncertainty>,
     /// Reduced chi-square of the pendulum fit (about 1 when the model explains the data to
     /// within the noise).
@@ -450,12 +494,18 @@ impl Identification {
 /// Identification errors; they name the records concerned.
 #[derive(Debug, thiserror::Error)]
 pub enum IdentifyError {
+    /// The campaign lists no record.
     #[error("the campaign has no records")]
     Empty,
+    /// Every record was excluded; the reasons, naming the records.
     #[error("no usable record: {0}")]
     NoUsableRecords(String),
+    /// An excited axis has no usable record, or fewer than three frequencies spanning a
+    /// factor two (its `a` and `b` cannot be separated); what is missing.
     #[error("{0}")]
     FrequencySpan(String),
+    /// The pendulum fit had no data points, or the model file could not be made from it
+    /// (invalid, or a parameter it cannot hold); what went wrong.
     #[error("the pendulum fit failed: {0}")]
     FitFailed(String),
 }

@@ -44,164 +44,36 @@ fn is_constant(v: &[f64]) -> bool {
 pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> RecordFit {
     let omega = rec.meta.omega;
     let dt = rec.dt();
-    let n = rec.len();
-    if !(dt.is_finite() && dt > 0.0 && omega.is_finite() && omega > 0.0) {
-        return excluded(rec, index, reason::TOO_SHORT);
-    }
-    let per = 2.0 * PI / (omega * dt);
-    if (n as f64) < 2.0 * per || per < 4.0 {
-        return excluded(rec, index, reason::TOO_SHORT);
-    }
-    let input = rec.excitation();
-    if rec.meta.amplitude <= 0.0 || is_constant(input) {
-        return excluded(rec, index, reason::ZERO_AMPLITUDE);
-    }
-    if is_constant(&rec.zmp_x) || is_constant(&rec.zmp_y) {
-        return excluded(rec, index, reason::CONSTANT_OUTPUT);
-    }
-    // Centre every signal (conditioning of the fits).
-    let centre = |v: &[f64]| -> Vec<f64> {
-        let m = v.iter().sum::<f64>() / v.len() as f64;
-        v.iter().map(|x| x - m).collect()
+    let [u, yx, yy] = match centred_signals(rec) {
+        Ok(signals) => signals,
+        Err(why) => return excluded(rec, index, why),
     };
-    let (u, yx, yy) = (centre(input), centre(&rec.zmp_x), centre(&rec.zmp_y));
-    if ![&u, &yx, &yy]
-        .iter()
-        .all(|s| s.iter().all(|v| v.is_finite()))
-    {
-        return excluded(rec, index, reason::BAD_DATA);
-    }
     // 1. Steady state.
     let Some(st) = steady::detect_steady([&u[..], &yx[..], &yy[..]], omega, dt) else {
         return excluded(rec, index, reason::TOO_SHORT);
     };
-    let steady_start_s = st.start as f64 * dt;
     if st.periods < 2 {
-        let mut r = excluded(rec, index, reason::NO_STEADY);
-        r.steady_start_s = steady_start_s;
-        r.periods = st.periods;
-        return r;
+        return excluded_after_steady(rec, index, reason::NO_STEADY, &st, dt);
     }
     let range = st.start..st.start + st.len;
     let sig = [&u[range.clone()], &yx[range.clone()], &yy[range]];
-    // 2. First estimate: windowed FFT of the input; the excitation must be where the manifest
-    // says (within two FFT bins).
-    let (fft_phasors, w_fft) = sine::fft_estimate([sig[0]], omega, dt);
-    let bin = 2.0 * PI / (st.len as f64 * dt);
-    if (w_fft - omega).abs() > 2.0 * bin || fft_phasors[0].norm() == 0.0 {
-        let mut r = excluded(rec, index, reason::WRONG_FREQUENCY);
-        r.steady_start_s = steady_start_s;
-        r.periods = st.periods;
-        return r;
+    // 2. First estimate: the excitation must be where the manifest says.
+    if !excitation_where_declared(sig[0], omega, dt, st.len) {
+        return excluded_after_steady(rec, index, reason::WRONG_FREQUENCY, &st, dt);
     }
-    // 3. Harmonic regression with a trend column (a drifting sensor's ramp stays out of the
-    // harmonics), the frequency refined on the signals less that trend, and the fit with the
-    // trend column at the refined frequency (from the refinement's own pass; the first fit if
-    // the frequency stayed).
+    // 3. Harmonic regression at the refined frequency.
     let k_max = opts.harmonics.clamp(1, 8);
-    let Some(first) = sine::harmonic_fit_trend(sig, omega, dt, k_max) else {
+    let Some((w, hf)) = refined_harmonic_fit(sig, omega, dt, k_max) else {
         return excluded(rec, index, reason::BAD_DATA);
     };
-    let Some((w, moved)) = sine::refine_frequency(sig, first.trend, omega, dt, k_max) else {
-        return excluded(rec, index, reason::BAD_DATA);
-    };
-    let hf = moved.unwrap_or(first);
-    // The outputs' noise: the residual once, its period-to-period variation (first and third
-    // harmonic) and its bins near zero frequency (the trend); pooled over the campaign later.
-    let out_fit = hf.pick([1, 2]);
-    let mut res = noise::spectrum::residuals([sig[1], sig[2]], &out_fit, w, dt, st.len);
-    let w_window = noise::periods::window_frequency(st.len, dt, st.periods);
-    let cleaned = noise::spectrum::CLEAN_HARMONICS;
-    noise::spectrum::remove_harmonics::<2>(&mut res, st.len, w_window, dt, k_max + 1, cleaned);
-    let by_period = noise::periods::period_noise::<2>(&res, st.len, dt, st.periods);
-    let bins = noise::spectrum::zero_bin_frequencies(st.len, dt, w);
-    let powers = noise::spectrum::bin_powers::<2>(&res, st.len, &bins, dt);
+    let noise = output_noises(sig, &hf, w, dt, &st, k_max);
     let p_in = hf.harmonics[0][0];
-    let nn = st.len as f64;
     let amp_in = p_in.norm();
     if amp_in.is_nan() || amp_in <= 1e-3 * rec.meta.amplitude.abs() || !amp_in.is_finite() {
         return excluded(rec, index, reason::ZERO_AMPLITUDE);
     }
-    let var_u = hf.noise_var[0];
-    let mut g = [Complex64::new(0.0, 0.0); 2];
-    let mut sigma = [0.0; 2];
-    let mut distortion = [0.0; 2];
-    let mut snr3 = [0.0; 2];
-    let mut noise = [0.0; 2];
-    for o in 0..2 {
-        let p = hf.harmonics[1 + o][0];
-        g[o] = p / p_in;
-        let var_y = hf.noise_var[1 + o];
-        // Each phasor component has variance 2 var / n over whole periods.
-        let noise_var = (2.0 / nn) * (var_y + g[o].norm_sqr() * var_u) / (amp_in * amp_in);
-        sigma[o] = (noise_var + (opts.relative_floor * g[o].norm()).powi(2)).sqrt();
-        let harm: f64 = hf.harmonics[1 + o][1..].iter().map(|h| h.norm_sqr()).sum();
-        distortion[o] = harm.sqrt() / p.norm().max(1e-300);
-        snr3[o] = if k_max >= 3 {
-            hf.harmonics[1 + o][2].norm() / ((2.0 / nn) * var_y).sqrt().max(1e-300)
-        } else {
-            0.0
-        };
-        noise[o] = var_y.sqrt();
-    }
+    let out = OutputEstimates::from_fit(&hf, st.len as f64, k_max, opts.relative_floor);
     let harm_in: f64 = hf.harmonics[0][1..].iter().map(|h| h.norm_sqr()).sum();
-    let t0 = rec.t[st.start];
-    let third = |j: usize| {
-        hf.harmonics[j]
-            .get(2)
-            .copied()
-            .unwrap_or(Complex64::new(0.0, 0.0))
-    };
-    let unmeasured = NoisePower {
-        power: f64::NAN,
-        dof: 0.0,
-        source: NoiseSource::Unmeasured,
-    };
-    let output_noise = |o: usize| {
-        let own = |power: Option<f64>, dof: Option<f64>| match (power, dof) {
-            (Some(power), Some(dof)) if power.is_finite() => NoisePower {
-                power,
-                dof,
-                source: NoiseSource::Own,
-            },
-            _ => unmeasured,
-        };
-        OutputNoise {
-            periods_first: own(
-                by_period.map(|b| b.first[o]),
-                by_period.map(|b| b.first_dof),
-            ),
-            periods_third: own(
-                by_period.map(|b| b.third[o]),
-                by_period.map(|b| b.third_dof),
-            ),
-            zero_bins: bins
-                .iter()
-                .copied()
-                .zip(powers[o].iter().copied())
-                .collect(),
-            first: unmeasured,
-            third: unmeasured,
-            trend: unmeasured,
-        }
-    };
-    let components = SteadyComponents {
-        t0,
-        t1: rec.t[st.start + st.len - 1],
-        samples: st.len,
-        periods: st.periods,
-        omega: w,
-        u1: p_in,
-        y1: [hf.harmonics[1][0], hf.harmonics[2][0]],
-        y3: [third(1), third(2)],
-        trend: [hf.trend[1], hf.trend[2]],
-        residual_var: [hf.noise_var[1], hf.noise_var[2]],
-        input_residual_var: hf.noise_var[0],
-        trend_omegas: trend_omegas(st.len as f64 * dt),
-        noise: [output_noise(0), output_noise(1)],
-        inv_diag_h1: hf.inv_diag_h1,
-        inv_diag_trend: hf.inv_diag_trend,
-    };
     RecordFit {
         index,
         excited: rec.meta.excited,
@@ -210,16 +82,222 @@ pub fn analyse_record(rec: &Record, index: usize, opts: &IdentifyOptions) -> Rec
         amplitude: rec.meta.amplitude,
         input_amplitude: amp_in,
         operating_point: rec.meta.operating_point,
-        g,
-        sigma,
-        distortion,
+        g: out.g,
+        sigma: out.sigma,
+        distortion: out.distortion,
         input_distortion: harm_in.sqrt() / amp_in,
-        third_harmonic_snr: snr3,
-        noise_std: noise,
-        steady_start_s,
+        third_harmonic_snr: out.snr3,
+        noise_std: out.noise_std,
+        steady_start_s: st.start as f64 * dt,
         periods: st.periods,
         excluded: None,
-        components: Some(components),
+        components: Some(steady_components(rec, &st, &hf, w, dt, noise)),
+    }
+}
+
+/// The excitation and both ZMP outputs, each less its mean (conditioning of the fits), or
+/// why the record cannot be analysed: too short for two periods of at least four samples, no
+/// excitation, a constant output, a sample that is not finite.
+fn centred_signals(rec: &Record) -> Result<[Vec<f64>; 3], &'static str> {
+    let omega = rec.meta.omega;
+    let dt = rec.dt();
+    if !(dt.is_finite() && dt > 0.0 && omega.is_finite() && omega > 0.0) {
+        return Err(reason::TOO_SHORT);
+    }
+    let per = 2.0 * PI / (omega * dt);
+    if (rec.len() as f64) < 2.0 * per || per < 4.0 {
+        return Err(reason::TOO_SHORT);
+    }
+    let input = rec.excitation();
+    if rec.meta.amplitude <= 0.0 || is_constant(input) {
+        return Err(reason::ZERO_AMPLITUDE);
+    }
+    if is_constant(&rec.zmp_x) || is_constant(&rec.zmp_y) {
+        return Err(reason::CONSTANT_OUTPUT);
+    }
+    let centre = |v: &[f64]| -> Vec<f64> {
+        let m = v.iter().sum::<f64>() / v.len() as f64;
+        v.iter().map(|x| x - m).collect()
+    };
+    let signals = [centre(input), centre(&rec.zmp_x), centre(&rec.zmp_y)];
+    if !signals.iter().all(|s| s.iter().all(|v| v.is_finite())) {
+        return Err(reason::BAD_DATA);
+    }
+    Ok(signals)
+}
+
+/// A record left out after its steady state was found: where it starts and its periods are
+/// reported with the reason.
+fn excluded_after_steady(
+    rec: &Record,
+    index: usize,
+    why: &str,
+    st: &steady::Steady,
+    dt: f64,
+) -> RecordFit {
+    let mut r = excluded(rec, index, why);
+    r.steady_start_s = st.start as f64 * dt;
+    r.periods = st.periods;
+    r
+}
+
+/// Whether the windowed FFT of the steady input (`n` samples) peaks within two FFT bins of
+/// the manifest's `omega` (rad/s) with a non-zero amplitude.
+fn excitation_where_declared(input: &[f64], omega: f64, dt: f64, n: usize) -> bool {
+    let (fft_phasors, w_fft) = sine::fft_estimate([input], omega, dt);
+    let bin = 2.0 * PI / (n as f64 * dt);
+    !((w_fft - omega).abs() > 2.0 * bin || fft_phasors[0].norm() == 0.0)
+}
+
+/// The harmonic regression with a trend column (a drifting sensor's ramp stays out of the
+/// harmonics), the frequency refined on the signals less that trend, and the fit with the
+/// trend column at the refined frequency (from the refinement's own pass; the first fit if
+/// the frequency stayed): the refined frequency (rad/s) and that fit.
+fn refined_harmonic_fit(
+    sig: [&[f64]; 3],
+    omega: f64,
+    dt: f64,
+    k_max: usize,
+) -> Option<(f64, sine::HarmonicFit<3>)> {
+    let first = sine::harmonic_fit_trend(sig, omega, dt, k_max)?;
+    let (w, moved) = sine::refine_frequency(sig, first.trend, omega, dt, k_max)?;
+    Some((w, moved.unwrap_or(first)))
+}
+
+/// The outputs' own noise: the residual once, its period-to-period variation (first and
+/// third harmonic) and its bins near zero frequency (the trend); pooled over the campaign
+/// later (the pooled fields start unmeasured).
+fn output_noises(
+    sig: [&[f64]; 3],
+    hf: &sine::HarmonicFit<3>,
+    w: f64,
+    dt: f64,
+    st: &steady::Steady,
+    k_max: usize,
+) -> [OutputNoise; 2] {
+    let out_fit = hf.pick([1, 2]);
+    let mut res = noise::spectrum::residuals([sig[1], sig[2]], &out_fit, w, dt, st.len);
+    let w_window = noise::periods::window_frequency(st.len, dt, st.periods);
+    let cleaned = noise::spectrum::CLEAN_HARMONICS;
+    noise::spectrum::remove_harmonics::<2>(&mut res, st.len, w_window, dt, k_max + 1, cleaned);
+    let by_period = noise::periods::period_noise::<2>(&res, st.len, dt, st.periods);
+    let bins = noise::spectrum::zero_bin_frequencies(st.len, dt, w);
+    let powers = noise::spectrum::bin_powers::<2>(&res, st.len, &bins, dt);
+    let unmeasured = NoisePower {
+        power: f64::NAN,
+        dof: 0.0,
+        source: NoiseSource::Unmeasured,
+    };
+    let own = |power: Option<f64>, dof: Option<f64>| match (power, dof) {
+        (Some(power), Some(dof)) if power.is_finite() => NoisePower {
+            power,
+            dof,
+            source: NoiseSource::Own,
+        },
+        _ => unmeasured,
+    };
+    [0, 1].map(|o| OutputNoise {
+        periods_first: own(
+            by_period.map(|b| b.first[o]),
+            by_period.map(|b| b.first_dof),
+        ),
+        periods_third: own(
+            by_period.map(|b| b.third[o]),
+            by_period.map(|b| b.third_dof),
+        ),
+        zero_bins: bins
+            .iter()
+            .copied()
+            .zip(powers[o].iter().copied())
+            .collect(),
+        first: unmeasured,
+        third: unmeasured,
+        trend: unmeasured,
+    })
+}
+
+/// Per output (zmp_x, zmp_y): the column of `G` for the excited input and what the fit says
+/// of it.
+struct OutputEstimates {
+    /// `G_ij = Y_i / U_j` at the fundamental.
+    g: [Complex64; 2],
+    /// Standard deviation of the real and of the imaginary part of `g`.
+    sigma: [f64; 2],
+    /// RMS of harmonics 2..K over the fundamental.
+    distortion: [f64; 2],
+    /// Third-harmonic amplitude over its standard error.
+    snr3: [f64; 2],
+    /// Residual standard deviation, m.
+    noise_std: [f64; 2],
+}
+
+impl OutputEstimates {
+    /// From the harmonic fit of `n` samples (input first, then both outputs): each phasor
+    /// component has variance `2 var / n` over whole periods; `relative_floor` adds a
+    /// relative error floor to `sigma`.
+    fn from_fit(hf: &sine::HarmonicFit<3>, nn: f64, k_max: usize, relative_floor: f64) -> Self {
+        let p_in = hf.harmonics[0][0];
+        let amp_in = p_in.norm();
+        let var_u = hf.noise_var[0];
+        let mut e = OutputEstimates {
+            g: [Complex64::new(0.0, 0.0); 2],
+            sigma: [0.0; 2],
+            distortion: [0.0; 2],
+            snr3: [0.0; 2],
+            noise_std: [0.0; 2],
+        };
+        for o in 0..2 {
+            let p = hf.harmonics[1 + o][0];
+            e.g[o] = p / p_in;
+            let var_y = hf.noise_var[1 + o];
+            // Each phasor component has variance 2 var / n over whole periods.
+            let noise_var = (2.0 / nn) * (var_y + e.g[o].norm_sqr() * var_u) / (amp_in * amp_in);
+            e.sigma[o] = (noise_var + (relative_floor * e.g[o].norm()).powi(2)).sqrt();
+            let harm: f64 = hf.harmonics[1 + o][1..].iter().map(|h| h.norm_sqr()).sum();
+            e.distortion[o] = harm.sqrt() / p.norm().max(1e-300);
+            e.snr3[o] = if k_max >= 3 {
+                hf.harmonics[1 + o][2].norm() / ((2.0 / nn) * var_y).sqrt().max(1e-300)
+            } else {
+                0.0
+            };
+            e.noise_std[o] = var_y.sqrt();
+        }
+        e
+    }
+}
+
+/// The steady-state components the diagnosis compares: the window, the refined frequency `w`
+/// (rad/s), the input and output phasors, trends, residual variances and the outputs' noise.
+fn steady_components(
+    rec: &Record,
+    st: &steady::Steady,
+    hf: &sine::HarmonicFit<3>,
+    w: f64,
+    dt: f64,
+    noise: [OutputNoise; 2],
+) -> SteadyComponents {
+    let third = |j: usize| {
+        hf.harmonics[j]
+            .get(2)
+            .copied()
+            .unwrap_or(Complex64::new(0.0, 0.0))
+    };
+    SteadyComponents {
+        t0: rec.t[st.start],
+        t1: rec.t[st.start + st.len - 1],
+        samples: st.len,
+        periods: st.periods,
+        omega: w,
+        u1: hf.harmonics[0][0],
+        y1: [hf.harmonics[1][0], hf.harmonics[2][0]],
+        y3: [third(1), third(2)],
+        trend: [hf.trend[1], hf.trend[2]],
+        residual_var: [hf.noise_var[1], hf.noise_var[2]],
+        input_residual_var: hf.noise_var[0],
+        trend_omegas: trend_omegas(st.len as f64 * dt),
+        noise,
+        inv_diag_h1: hf.inv_diag_h1,
+        inv_diag_trend: hf.inv_diag_trend,
     }
 }
 

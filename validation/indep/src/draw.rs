@@ -347,6 +347,8 @@ fn pair_swapped(rng: &mut impl Rng, first: f64, second: f64) -> [f64; 2] {
     }
 }
 
+/// The parameters of one hidden effect at quantile `q` of its visible range, the rest of its
+/// shape drawn from `rng`.
 fn draw_effect(
     effect: Effect,
     base: &Robot,
@@ -357,46 +359,9 @@ fn draw_effect(
 ) -> EffectParams {
     let servo = |k: usize| &base.axes[k].servo;
     match effect {
-        Effect::TimeDelay => {
-            let tau = log_at(0.010, 0.150, q);
-            let other = if rng.gen_bool(0.6) {
-                tau
-            } else {
-                (tau * rng.gen_range(0.5..1.5)).clamp(0.010, 0.150)
-            };
-            EffectParams::Delay(pair_swapped(rng, tau, other))
-        }
-        Effect::Backlash => {
-            let w = log_at(0.3e-3, 2.5e-3, q);
-            let other = (w * rng.gen_range(0.6..1.4)).clamp(0.3e-3, 2.5e-3);
-            let widths = pair_swapped(rng, w, other);
-            EffectParams::Transmission(widths.map(|play| Transmission {
-                play,
-                omega: rng.gen_range(100.0..250.0),
-                zeta: rng.gen_range(0.1..0.3),
-                hardening_deflection: None,
-                load_drag_time: Some(rng.gen_range(0.02..0.1)),
-            }))
-        }
-        Effect::CoulombFriction | Effect::StribeckFriction => {
-            let ratio = log_at(0.02, 0.2, q);
-            EffectParams::Friction([0, 1].map(|k| {
-                let kinetic = servo(k).accel_limit * ratio * rng.gen_range(0.7..1.3);
-                if effect == Effect::CoulombFriction {
-                    Friction {
-                        kinetic,
-                        static_level: kinetic,
-                        stribeck_velocity: None,
-                    }
-                } else {
-                    Friction {
-                        kinetic,
-                        static_level: kinetic * rng.gen_range(1.5..3.0),
-                        stribeck_velocity: Some(log_uniform(rng, 1e-3, 1e-2)),
-                    }
-                }
-            }))
-        }
+        Effect::TimeDelay => draw_delay(rng, q),
+        Effect::Backlash => draw_backlash(rng, q),
+        Effect::CoulombFriction | Effect::StribeckFriction => draw_friction(effect, base, rng, q),
         Effect::AccelerationSaturation => {
             let factor = log_at(0.5, 0.25, q);
             EffectParams::AccelLimit([0, 1].map(|k| demand(servo(k), design, 2) * factor))
@@ -407,46 +372,8 @@ fn draw_effect(
                 [0, 1].map(|k| demand(servo(k), design, 1) * factor * rng.gen_range(0.95..1.05)),
             )
         }
-        Effect::StructuralMode | Effect::SecondStructuralMode => {
-            let share = log_at(0.15, 0.6, q);
-            EffectParams::Modes([0, 1].map(|_| {
-                let mass_fraction = (share * rng.gen_range(0.8..1.2)).clamp(0.15, 0.6);
-                if effect == Effect::StructuralMode {
-                    vec![FlexibleMode {
-                        omega: rng.gen_range(10.0..35.0),
-                        zeta: log_uniform(rng, 0.02, 0.12),
-                        mass_fraction,
-                    }]
-                } else {
-                    let w1 = rng.gen_range(10.0..25.0);
-                    vec![
-                        FlexibleMode {
-                            omega: w1,
-                            zeta: log_uniform(rng, 0.02, 0.12),
-                            mass_fraction,
-                        },
-                        FlexibleMode {
-                            omega: w1 * rng.gen_range(1.5..2.5),
-                            zeta: log_uniform(rng, 0.02, 0.12),
-                            mass_fraction: rng.gen_range(0.3..0.6),
-                        },
-                    ]
-                }
-            }))
-        }
-        Effect::CubicStiffness => EffectParams::Transmission([0, 1].map(|k| {
-            let omega = rng.gen_range(20.0..40.0);
-            // The largest acceleration the servo reaches: the hardening acts below the limit.
-            let reached = demand(servo(k), design, 2).min(servo(k).accel_limit);
-            let deflection = reached / (omega * omega);
-            Transmission {
-                play: 0.0,
-                omega,
-                zeta: rng.gen_range(0.05..0.15),
-                hardening_deflection: Some(deflection * log_at(1.0, 0.3, q)),
-                load_drag_time: None,
-            }
-        })),
+        Effect::StructuralMode | Effect::SecondStructuralMode => draw_modes(effect, rng, q),
+        Effect::CubicStiffness => draw_cubic_stiffness(base, design, rng, q),
         Effect::SensorLowpass => {
             let wc = log_at(150.0, 15.0, q);
             EffectParams::Lowpass([0, 1].map(|_| wc * rng.gen_range(0.85..1.15)))
@@ -464,54 +391,166 @@ fn draw_effect(
             let second = sign(rng) * rate * rng.gen_range(0.2..1.0);
             EffectParams::Drift(pair_swapped(rng, first, second))
         }
-        Effect::SensorRezero => {
-            let s = log_at(0.02e-3, 0.5e-3, q);
-            let other = s * rng.gen_range(0.2..1.0);
-            let spread = pair_swapped(rng, s, other);
-            let mean = spread.map(|s| sign(rng) * s * rng.gen_range(0.0..0.5));
-            let seed = u64::from(rng.gen::<u32>());
-            EffectParams::Rezero(mean, Rezero { spread, seed })
-        }
-        Effect::OpPerChannel => {
-            let rho = log_at(0.02, 0.2, q);
-            let span = op_span(design);
-            // One or two of the four channels move, each with its own slopes.
-            let mut channels = vec![(0, 0), (0, 1), (1, 0), (1, 1)];
-            let moving = if rng.gen_bool(0.5) { 1 } else { 2 };
-            let mut o = OpPerChannel {
-                a_slope: [[[0.0; 2]; 2]; 2],
-                b_slope: [[[0.0; 2]; 2]; 2],
-            };
-            for _ in 0..moving {
-                let (i, j) = channels.swap_remove(rng.gen_range(0..channels.len()));
-                o.a_slope[i][j] = op_slope(rng, rho, span);
-                o.b_slope[i][j] = op_slope(rng, rho, span);
+        Effect::SensorRezero => draw_rezero(rng, q),
+        Effect::OpPerChannel => draw_op_per_channel(design, rng, q),
+        Effect::CrossCoupling => draw_coupling(options, rng, q),
+    }
+}
+
+/// A pure delay of 10-150 ms per axis, the second axis the same or within a factor 1.5.
+fn draw_delay(rng: &mut ChaCha8Rng, q: f64) -> EffectParams {
+    let tau = log_at(0.010, 0.150, q);
+    let other = if rng.gen_bool(0.6) {
+        tau
+    } else {
+        (tau * rng.gen_range(0.5..1.5)).clamp(0.010, 0.150)
+    };
+    EffectParams::Delay(pair_swapped(rng, tau, other))
+}
+
+/// A play of 0.3-2.5 mm (CoM-equivalent) per axis in a compliant transmission of
+/// 100-250 rad/s with load drag.
+fn draw_backlash(rng: &mut ChaCha8Rng, q: f64) -> EffectParams {
+    let w = log_at(0.3e-3, 2.5e-3, q);
+    let other = (w * rng.gen_range(0.6..1.4)).clamp(0.3e-3, 2.5e-3);
+    let widths = pair_swapped(rng, w, other);
+    EffectParams::Transmission(widths.map(|play| Transmission {
+        play,
+        omega: rng.gen_range(100.0..250.0),
+        zeta: rng.gen_range(0.1..0.3),
+        hardening_deflection: None,
+        load_drag_time: Some(rng.gen_range(0.02..0.1)),
+    }))
+}
+
+/// A Coulomb (or Stribeck) friction of 2-20 % of each servo's acceleration limit.
+fn draw_friction(effect: Effect, base: &Robot, rng: &mut ChaCha8Rng, q: f64) -> EffectParams {
+    let ratio = log_at(0.02, 0.2, q);
+    EffectParams::Friction([0, 1].map(|k| {
+        let kinetic = base.axes[k].servo.accel_limit * ratio * rng.gen_range(0.7..1.3);
+        if effect == Effect::CoulombFriction {
+            Friction {
+                kinetic,
+                static_level: kinetic,
+                stribeck_velocity: None,
             }
-            EffectParams::OpPerChannel(o)
-        }
-        Effect::CrossCoupling => {
-            let drawn = rng.gen_bool(0.5);
-            let pendulum = match options.coupling_form {
-                Some(form) => form == CouplingForm::Pendulum,
-                None => drawn,
-            };
-            if pendulum {
-                let mut term =
-                    |lo: f64, hi: f64| sign(rng) * log_at(lo, hi, q) * rng.gen_range(0.7..1.0);
-                EffectParams::Coupling(CrossCoupling::Pendulum {
-                    da12: term(0.03, 0.25),
-                    da21: term(0.03, 0.25),
-                    db12: term(0.005, 0.05),
-                    db21: term(0.005, 0.05),
-                })
-            } else {
-                let mut kappa = || sign(rng) * log_at(0.05, 0.3, q) * rng.gen_range(0.7..1.0);
-                EffectParams::Coupling(CrossCoupling::Inertial {
-                    kappa_xy: kappa(),
-                    kappa_yx: kappa(),
-                })
+        } else {
+            Friction {
+                kinetic,
+                static_level: kinetic * rng.gen_range(1.5..3.0),
+                stribeck_velocity: Some(log_uniform(rng, 1e-3, 1e-2)),
             }
         }
+    }))
+}
+
+/// One flexible mode of 10-35 rad/s per axis (or two, the second 1.5-2.5 times the first)
+/// carrying 15-60 % of the moving mass.
+fn draw_modes(effect: Effect, rng: &mut ChaCha8Rng, q: f64) -> EffectParams {
+    let share = log_at(0.15, 0.6, q);
+    EffectParams::Modes([0, 1].map(|_| {
+        let mass_fraction = (share * rng.gen_range(0.8..1.2)).clamp(0.15, 0.6);
+        if effect == Effect::StructuralMode {
+            vec![FlexibleMode {
+                omega: rng.gen_range(10.0..35.0),
+                zeta: log_uniform(rng, 0.02, 0.12),
+                mass_fraction,
+            }]
+        } else {
+            let w1 = rng.gen_range(10.0..25.0);
+            vec![
+                FlexibleMode {
+                    omega: w1,
+                    zeta: log_uniform(rng, 0.02, 0.12),
+                    mass_fraction,
+                },
+                FlexibleMode {
+                    omega: w1 * rng.gen_range(1.5..2.5),
+                    zeta: log_uniform(rng, 0.02, 0.12),
+                    mass_fraction: rng.gen_range(0.3..0.6),
+                },
+            ]
+        }
+    }))
+}
+
+/// A hardening transmission of 20-40 rad/s whose cubic term acts within the accelerations
+/// the design reaches.
+fn draw_cubic_stiffness(
+    base: &Robot,
+    design: &Design,
+    rng: &mut ChaCha8Rng,
+    q: f64,
+) -> EffectParams {
+    EffectParams::Transmission([0, 1].map(|k| {
+        let servo = &base.axes[k].servo;
+        let omega = rng.gen_range(20.0..40.0);
+        // The largest acceleration the servo reaches: the hardening acts below the limit.
+        let reached = demand(servo, design, 2).min(servo.accel_limit);
+        let deflection = reached / (omega * omega);
+        Transmission {
+            play: 0.0,
+            omega,
+            zeta: rng.gen_range(0.05..0.15),
+            hardening_deflection: Some(deflection * log_at(1.0, 0.3, q)),
+            load_drag_time: None,
+        }
+    }))
+}
+
+/// A drift rate that changes from record to record: a spread of 0.02-0.5 mm/s per axis about
+/// a mean rate of random sign up to half of it.
+fn draw_rezero(rng: &mut ChaCha8Rng, q: f64) -> EffectParams {
+    let s = log_at(0.02e-3, 0.5e-3, q);
+    let other = s * rng.gen_range(0.2..1.0);
+    let spread = pair_swapped(rng, s, other);
+    let mean = spread.map(|s| sign(rng) * s * rng.gen_range(0.0..0.5));
+    let seed = u64::from(rng.gen::<u32>());
+    EffectParams::Rezero(mean, Rezero { spread, seed })
+}
+
+/// Operating-point slopes on one or two of the four channels, 2-20 % change at the farthest
+/// operating point.
+fn draw_op_per_channel(design: &Design, rng: &mut ChaCha8Rng, q: f64) -> EffectParams {
+    let rho = log_at(0.02, 0.2, q);
+    let span = op_span(design);
+    // One or two of the four channels move, each with its own slopes.
+    let mut channels = vec![(0, 0), (0, 1), (1, 0), (1, 1)];
+    let moving = if rng.gen_bool(0.5) { 1 } else { 2 };
+    let mut o = OpPerChannel {
+        a_slope: [[[0.0; 2]; 2]; 2],
+        b_slope: [[[0.0; 2]; 2]; 2],
+    };
+    for _ in 0..moving {
+        let (i, j) = channels.swap_remove(rng.gen_range(0..channels.len()));
+        o.a_slope[i][j] = op_slope(rng, rho, span);
+        o.b_slope[i][j] = op_slope(rng, rho, span);
+    }
+    EffectParams::OpPerChannel(o)
+}
+
+/// A cross-coupling between the axes, in pendulum form (off-diagonal `a`, `b`) or inertial
+/// form (`kappa`), drawn or as the options fix it.
+fn draw_coupling(options: &DrawOptions, rng: &mut ChaCha8Rng, q: f64) -> EffectParams {
+    let drawn = rng.gen_bool(0.5);
+    let pendulum = match options.coupling_form {
+        Some(form) => form == CouplingForm::Pendulum,
+        None => drawn,
+    };
+    if pendulum {
+        let mut term = |lo: f64, hi: f64| sign(rng) * log_at(lo, hi, q) * rng.gen_range(0.7..1.0);
+        EffectParams::Coupling(CrossCoupling::Pendulum {
+            da12: term(0.03, 0.25),
+            da21: term(0.03, 0.25),
+            db12: term(0.005, 0.05),
+            db21: term(0.005, 0.05),
+        })
+    } else {
+        let mut kappa = || sign(rng) * log_at(0.05, 0.3, q) * rng.gen_range(0.7..1.0);
+        EffectParams::Coupling(CrossCoupling::Inertial {
+            kappa_xy: kappa(),
+            kappa_yx: kappa(),
+        })
     }
 }
 

@@ -107,138 +107,146 @@ fn every_effect_draws_a_valid_visible_robot_within_its_ranges() {
             Scenario::Outside { effect, with: None }
         };
         let r = draw(4, &scenario);
-        r.validate().unwrap();
-        assert_eq!(r.hidden_names(), [effect.catalogue_name()]);
-        assert_eq!(r.hidden[0].effect, effect);
-        let h = &r.hidden[0];
-        assert_eq!(h.in_catalogue, effect.in_catalogue());
-        assert_eq!(
-            h.nearest_catalogue.as_deref(),
-            effect.nearest_catalogue().map(|e| e.name())
-        );
-        assert!(h.visible, "{effect}: not visible: {h:?}");
-        assert!(
-            h.records_visible >= 3 && h.max_sigmas >= 6.0 && h.max_relative >= 0.02,
-            "{h:?}"
-        );
-        assert_eq!(r.has_outside_effect(), !effect.in_catalogue());
-        match effect {
-            Effect::CubicStiffness
-            | Effect::StribeckFriction
-            | Effect::SecondStructuralMode
-            | Effect::SensorRezero => {
-                assert!(
-                    h.records_visible_beyond_catalogue.unwrap() >= 3,
-                    "{effect}: not visible against its catalogue form: {h:?}"
-                )
-            }
-            _ => assert_eq!(h.records_visible_beyond_catalogue, None, "{effect}"),
+        assert_hidden_effect_recorded(&r, effect);
+        assert_parameters_within_ranges(&r, effect);
+    }
+}
+
+/// The robot is valid and its one hidden effect is recorded as drawn: its name, whether it is
+/// in the catalogue and its nearest catalogue form, and that the design's records show it.
+fn assert_hidden_effect_recorded(r: &Robot, effect: Effect) {
+    r.validate().unwrap();
+    assert_eq!(r.hidden_names(), [effect.catalogue_name()]);
+    assert_eq!(r.hidden[0].effect, effect);
+    let h = &r.hidden[0];
+    assert_eq!(h.in_catalogue, effect.in_catalogue());
+    assert_eq!(
+        h.nearest_catalogue.as_deref(),
+        effect.nearest_catalogue().map(|e| e.name())
+    );
+    assert!(h.visible, "{effect}: not visible: {h:?}");
+    assert!(
+        h.records_visible >= 3 && h.max_sigmas >= 6.0 && h.max_relative >= 0.02,
+        "{h:?}"
+    );
+    assert_eq!(r.has_outside_effect(), !effect.in_catalogue());
+    match effect {
+        Effect::CubicStiffness
+        | Effect::StribeckFriction
+        | Effect::SecondStructuralMode
+        | Effect::SensorRezero => {
+            assert!(
+                h.records_visible_beyond_catalogue.unwrap() >= 3,
+                "{effect}: not visible against its catalogue form: {h:?}"
+            )
         }
-        let ax = &r.axes;
-        match effect {
-            Effect::TimeDelay => assert!(ax.iter().all(|a| within(a.command_delay, 0.010, 0.150))),
-            Effect::Backlash => assert!(ax.iter().all(|a| {
-                let t = a.transmission.as_ref().unwrap();
-                within(t.play, 0.3e-3, 2.5e-3)
-                    && within(t.omega, 100.0, 250.0)
-                    && t.hardening_deflection.is_none()
-            })),
-            Effect::CoulombFriction => assert!(ax.iter().all(|a| {
-                let f = a.friction.as_ref().unwrap();
-                f.static_level == f.kinetic && within(f.kinetic / a.servo.accel_limit, 0.014, 0.26)
-            })),
-            Effect::StribeckFriction => assert!(ax.iter().all(|a| {
-                let f = a.friction.as_ref().unwrap();
-                within(f.static_level / f.kinetic, 1.5, 3.0)
-                    && within(f.stribeck_velocity.unwrap(), 1e-3, 1e-2)
-            })),
-            Effect::AccelerationSaturation => {
-                assert!((0..2).all(|k| within(
-                    ax[k].servo.accel_limit / demand(&r, k, 2),
-                    0.25,
-                    0.5
-                )))
+        _ => assert_eq!(h.records_visible_beyond_catalogue, None, "{effect}"),
+    }
+}
+
+/// The drawn parameters lie within the ranges the effect is drawn from (the paired axis's
+/// spread widens some of them).
+fn assert_parameters_within_ranges(r: &Robot, effect: Effect) {
+    let ax = &r.axes;
+    match effect {
+        Effect::TimeDelay => assert!(ax.iter().all(|a| within(a.command_delay, 0.010, 0.150))),
+        Effect::Backlash => assert!(ax.iter().all(|a| {
+            let t = a.transmission.as_ref().unwrap();
+            within(t.play, 0.3e-3, 2.5e-3)
+                && within(t.omega, 100.0, 250.0)
+                && t.hardening_deflection.is_none()
+        })),
+        Effect::CoulombFriction => assert!(ax.iter().all(|a| {
+            let f = a.friction.as_ref().unwrap();
+            f.static_level == f.kinetic && within(f.kinetic / a.servo.accel_limit, 0.014, 0.26)
+        })),
+        Effect::StribeckFriction => assert!(ax.iter().all(|a| {
+            let f = a.friction.as_ref().unwrap();
+            within(f.static_level / f.kinetic, 1.5, 3.0)
+                && within(f.stribeck_velocity.unwrap(), 1e-3, 1e-2)
+        })),
+        Effect::AccelerationSaturation => {
+            assert!((0..2).all(|k| within(ax[k].servo.accel_limit / demand(r, k, 2), 0.25, 0.5)))
+        }
+        Effect::RateLimitedServo => assert!((0..2).all(|k| {
+            within(
+                ax[k].servo.velocity_limit.unwrap() / demand(r, k, 1),
+                0.38,
+                0.9,
+            )
+        })),
+        Effect::StructuralMode => assert!(ax.iter().all(|a| {
+            a.modes.len() == 1
+                && within(a.modes[0].omega, 10.0, 35.0)
+                && within(a.modes[0].zeta, 0.02, 0.12)
+        })),
+        Effect::SecondStructuralMode => assert!(ax.iter().all(|a| {
+            a.modes.len() == 2 && within(a.modes[1].omega / a.modes[0].omega, 1.5, 2.5)
+        })),
+        Effect::CubicStiffness => assert!((0..2).all(|k| {
+            let t = ax[k].transmission.as_ref().unwrap();
+            // The stiffness at least doubles within the deflection of the largest
+            // acceleration the servo reaches (the demand, or the limit if lower).
+            let reached = demand(r, k, 2).min(ax[k].servo.accel_limit);
+            t.play == 0.0
+                && within(t.omega, 20.0, 40.0)
+                && t.hardening_deflection.unwrap() <= reached / t.omega.powi(2) * (1.0 + 1e-12)
+        })),
+        Effect::SensorLowpass => {
+            assert!(r.sensor.lowpass_cutoff.unwrap().iter().all(|&c| within(
+                c,
+                15.0 * 0.85,
+                150.0 * 1.15
+            )))
+        }
+        Effect::SensorDrift => {
+            let d = r.sensor.drift_rate;
+            assert!(d.iter().all(|v| v.abs() <= 0.5e-3) && d.iter().any(|v| v.abs() >= 0.02e-3))
+        }
+        Effect::OperatingPointDependence => {
+            let o = r.op_dependence.as_ref().unwrap();
+            // Relative change at the farthest operating point (0.03 m, 0.02 m): 1-20 %.
+            for (k, span) in [0.03, 0.02].into_iter().enumerate() {
+                assert!(within((o.a_slope[k] * span).abs(), 0.01, 0.2));
+                assert!(within((o.b_slope[k] * span).abs(), 0.01, 0.2));
             }
-            Effect::RateLimitedServo => assert!((0..2).all(|k| {
-                within(
-                    ax[k].servo.velocity_limit.unwrap() / demand(&r, k, 1),
-                    0.38,
-                    0.9,
-                )
-            })),
-            Effect::StructuralMode => assert!(ax.iter().all(|a| {
-                a.modes.len() == 1
-                    && within(a.modes[0].omega, 10.0, 35.0)
-                    && within(a.modes[0].zeta, 0.02, 0.12)
-            })),
-            Effect::SecondStructuralMode => assert!(ax.iter().all(|a| {
-                a.modes.len() == 2 && within(a.modes[1].omega / a.modes[0].omega, 1.5, 2.5)
-            })),
-            Effect::CubicStiffness => assert!((0..2).all(|k| {
-                let t = ax[k].transmission.as_ref().unwrap();
-                // The stiffness at least doubles within the deflection of the largest
-                // acceleration the servo reaches (the demand, or the limit if lower).
-                let reached = demand(&r, k, 2).min(ax[k].servo.accel_limit);
-                t.play == 0.0
-                    && within(t.omega, 20.0, 40.0)
-                    && t.hardening_deflection.unwrap() <= reached / t.omega.powi(2) * (1.0 + 1e-12)
-            })),
-            Effect::SensorLowpass => {
-                assert!(r.sensor.lowpass_cutoff.unwrap().iter().all(|&c| within(
-                    c,
-                    15.0 * 0.85,
-                    150.0 * 1.15
-                )))
+        }
+        Effect::SensorRezero => {
+            let z = r.sensor.rezero.as_ref().unwrap();
+            assert!(
+                z.spread.iter().all(|v| *v <= 0.5e-3) && z.spread.iter().any(|v| *v >= 0.02e-3)
+            );
+            for k in 0..2 {
+                assert!(r.sensor.drift_rate[k].abs() <= 0.5 * z.spread[k]);
             }
-            Effect::SensorDrift => {
-                let d = r.sensor.drift_rate;
-                assert!(d.iter().all(|v| v.abs() <= 0.5e-3) && d.iter().any(|v| v.abs() >= 0.02e-3))
-            }
-            Effect::OperatingPointDependence => {
-                let o = r.op_dependence.as_ref().unwrap();
-                // Relative change at the farthest operating point (0.03 m, 0.02 m): 1-20 %.
+        }
+        Effect::OpPerChannel => {
+            let o = r.op_per_channel.as_ref().unwrap();
+            let moving = o.moving();
+            assert!((1..=2).contains(&moving.len()), "{moving:?}");
+            for (i, j) in moving {
                 for (k, span) in [0.03, 0.02].into_iter().enumerate() {
-                    assert!(within((o.a_slope[k] * span).abs(), 0.01, 0.2));
-                    assert!(within((o.b_slope[k] * span).abs(), 0.01, 0.2));
+                    assert!(within((o.a_slope[i][j][k] * span).abs(), 0.01, 0.2));
+                    assert!(within((o.b_slope[i][j][k] * span).abs(), 0.01, 0.2));
                 }
             }
-            Effect::SensorRezero => {
-                let z = r.sensor.rezero.as_ref().unwrap();
-                assert!(
-                    z.spread.iter().all(|v| *v <= 0.5e-3) && z.spread.iter().any(|v| *v >= 0.02e-3)
-                );
-                for k in 0..2 {
-                    assert!(r.sensor.drift_rate[k].abs() <= 0.5 * z.spread[k]);
-                }
-            }
-            Effect::OpPerChannel => {
-                let o = r.op_per_channel.as_ref().unwrap();
-                let moving = o.moving();
-                assert!((1..=2).contains(&moving.len()), "{moving:?}");
-                for (i, j) in moving {
-                    for (k, span) in [0.03, 0.02].into_iter().enumerate() {
-                        assert!(within((o.a_slope[i][j][k] * span).abs(), 0.01, 0.2));
-                        assert!(within((o.b_slope[i][j][k] * span).abs(), 0.01, 0.2));
-                    }
-                }
-            }
-            Effect::CrossCoupling => match r.cross_coupling.as_ref().unwrap() {
-                CrossCoupling::Pendulum {
-                    da12,
-                    da21,
-                    db12,
-                    db21,
-                } => {
-                    assert!([da12, da21].iter().all(|v| within(v.abs(), 0.021, 0.25)));
-                    assert!([db12, db21].iter().all(|v| within(v.abs(), 0.0035, 0.05)));
-                }
-                CrossCoupling::Inertial { kappa_xy, kappa_yx } => {
-                    assert!([kappa_xy, kappa_yx]
-                        .iter()
-                        .all(|v| within(v.abs(), 0.035, 0.3)));
-                }
-            },
         }
+        Effect::CrossCoupling => match r.cross_coupling.as_ref().unwrap() {
+            CrossCoupling::Pendulum {
+                da12,
+                da21,
+                db12,
+                db21,
+            } => {
+                assert!([da12, da21].iter().all(|v| within(v.abs(), 0.021, 0.25)));
+                assert!([db12, db21].iter().all(|v| within(v.abs(), 0.0035, 0.05)));
+            }
+            CrossCoupling::Inertial { kappa_xy, kappa_yx } => {
+                assert!([kappa_xy, kappa_yx]
+                    .iter()
+                    .all(|v| within(v.abs(), 0.035, 0.3)));
+            }
+        },
     }
 }
 

@@ -325,10 +325,41 @@ pub fn write_diagnosis_report(
 ) -> Result<PathBuf> {
     zmp_files::claim_dir(dir, zmp_files::Kind::Report, true)?;
     let obs: Vec<&Observation> = d.observations.iter().collect();
-    let f = d.noise_floor;
-    let mut h = String::new();
-    let title = format!("Diagnosis: {} on {}", d.model, d.campaign);
-    let verdict = match &d.verdict {
+    let mut h = diagnosis_header(d);
+    h.push_str(&findings_table(d));
+    h.push_str(&decide::section(d));
+    h.push_str(&waterfall_section(d, dir, force)?);
+    let out = Out {
+        dir,
+        force,
+        prefix: "diagnosis_",
+    };
+    h.push_str(&responses_section(d, &obs, &out)?);
+    h.push_str("<h2>Where the model as given fails</h2>\n");
+    h.push_str(&cells_table(&d.cells, 12));
+    let (preds, model) = if d.selected.is_empty() {
+        (&d.base_predictions, "")
+    } else {
+        h.push_str("<h2>Where it still fails with the effects found</h2>\n");
+        h.push_str(&cells_table(
+            &zmp_diagnose::cells::cells(&obs, &d.final_predictions),
+            12,
+        ));
+        (&d.final_predictions, FOUND)
+    };
+    h.push_str(&model_figures(campaign, &obs, preds, model, &[], &out)?);
+    h.push_str("</body></html>\n");
+    let html = dir.join("diagnosis.html");
+    zmp_files::write_file(&html, zmp_files::Kind::Html, h.as_bytes(), force)?;
+    Ok(html)
+}
+
+/// The label of the model with the effects the diagnosis found.
+const FOUND: &str = "with the effects found";
+
+/// The verdict in words (HTML, names escaped).
+fn verdict_words(verdict: &Verdict) -> String {
+    match verdict {
         Verdict::None => "none: the model explains the measurements to the noise floor".to_string(),
         Verdict::Unexplained => {
             "unexplained: a significant error remains that no structure of the catalogue removes"
@@ -345,7 +376,16 @@ pub fn write_diagnosis_report(
                 .join(", ")
         ),
         Verdict::Effect(c) => format!("the model is missing <b>{}</b>", esc(&c.label())),
-    };
+    }
+}
+
+/// The page's head, title, verdict and how the diagnosis decided (the criterion and its
+/// threshold), then the error measure.
+fn diagnosis_header(d: &Diagnosis) -> String {
+    let f = d.noise_floor;
+    let mut h = String::new();
+    let title = format!("Diagnosis: {} on {}", d.model, d.campaign);
+    let verdict = verdict_words(&d.verdict);
     let _ = writeln!(
         h,
         "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{0}</title>{STYLE}</head>\
@@ -364,9 +404,12 @@ pub fn write_diagnosis_report(
         d.compared,
         d.z_crit
     );
-    h.push_str(&findings_table(d));
-    h.push_str(&decide::section(d));
-    // Waterfall.
+    h
+}
+
+/// The error waterfall (held-out error of the model as given, refitted, and as each effect
+/// is added, against the noise floor), written as `waterfall.svg` in `dir` and inlined.
+fn waterfall_section(d: &Diagnosis, dir: &Path, force: bool) -> Result<String> {
     let mut bars = vec![("model as given".to_string(), d.baseline_error)];
     if d.refit_error.is_finite() {
         bars.push(("refitted".into(), d.refit_error));
@@ -380,29 +423,27 @@ pub fn write_diagnosis_report(
         "Error as effects are added (held-out)",
         "error",
         &bars,
-        Some((f, "noise floor")),
+        Some((d.noise_floor, "noise floor")),
         force,
     )?;
-    h.push_str("<h2>Error waterfall</h2>\n");
-    h.push_str(&inline(&wf)?);
-    let out = Out {
-        dir,
-        force,
-        prefix: "diagnosis_",
-    };
-    let found = "with the effects found";
+    Ok(format!("<h2>Error waterfall</h2>\n{}", inline(&wf)?))
+}
+
+/// The frequency responses: measured points and the model, and with the effects found
+/// beside the model as given when the diagnosis found any ("Before and after").
+fn responses_section(d: &Diagnosis, obs: &[&Observation], out: &Out) -> Result<String> {
     if d.selected.is_empty() {
         let overlay = [Overlay {
             label: "model",
             predictions: &d.base_predictions,
         }];
-        h.push_str(&bode_section(
-            &obs,
+        bode_section(
+            obs,
             &overlay,
-            &out,
+            out,
             "Frequency responses: measured points and model",
             "",
-        )?);
+        )
     } else {
         let overlays = [
             Overlay {
@@ -410,34 +451,17 @@ pub fn write_diagnosis_report(
                 predictions: &d.base_predictions,
             },
             Overlay {
-                label: found,
+                label: FOUND,
                 predictions: &d.final_predictions,
             },
         ];
-        h.push_str(&bode_section(
-            &obs,
+        bode_section(
+            obs,
             &overlays,
-            &out,
+            out,
             "Before and after",
             "Frequency responses. Points: measured; dashed: the model as given; solid: with \
              the effects found (fitted on every record).",
-        )?);
+        )
     }
-    h.push_str("<h2>Where the model as given fails</h2>\n");
-    h.push_str(&cells_table(&d.cells, 12));
-    let (preds, model) = if d.selected.is_empty() {
-        (&d.base_predictions, "")
-    } else {
-        h.push_str("<h2>Where it still fails with the effects found</h2>\n");
-        h.push_str(&cells_table(
-            &zmp_diagnose::cells::cells(&obs, &d.final_predictions),
-            12,
-        ));
-        (&d.final_predictions, found)
-    };
-    h.push_str(&model_figures(campaign, &obs, preds, model, &[], &out)?);
-    h.push_str("</body></html>\n");
-    let html = dir.join("diagnosis.html");
-    zmp_files::write_file(&html, zmp_files::Kind::Html, h.as_bytes(), force)?;
-    Ok(html)
 }

@@ -234,6 +234,23 @@ where
         mesh.x_desc("omega (rad/s)");
     }
     mesh.draw().map_err(e)?;
+    draw_magnitudes(&mut mag, panel, (mlo, mhi))?;
+    let Some(bottom) = bottom else {
+        return Ok(());
+    };
+    draw_phases(&bottom, panel, &phases, (wlo, whi), (plo, phi))
+}
+
+/// The uncertainty bands (clamped to the magnitude axis `mlo..mhi`, dB) and each series'
+/// magnitude (dB), measured points with bars of two standard errors.
+fn draw_magnitudes<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    mag: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+    panel: &BodePanel,
+    (mlo, mhi): (f64, f64),
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
     for b in &panel.bands {
         let mut poly: Vec<(f64, f64)> = b
             .omega
@@ -261,7 +278,7 @@ where
             .copied()
             .zip(s.value.iter().map(|v| db(*v)))
             .collect();
-        draw_curve(&mut mag, s.style, s.color, &pts)?;
+        draw_curve(mag, s.style, s.color, &pts)?;
         if let (Some(err), Style::Points) = (&s.magnitude_error, s.style) {
             let c = s.color;
             mag.draw_series(s.omega.iter().zip(s.value.iter()).zip(err.iter()).map(
@@ -275,10 +292,22 @@ where
             .map_err(e)?;
         }
     }
-    let Some(bottom) = bottom else {
-        return Ok(());
-    };
-    let mut ph = ChartBuilder::on(&bottom)
+    Ok(())
+}
+
+/// The phase chart (deg, unwrapped: `phases` per series) under the magnitude, on the same
+/// frequency axis `wlo..whi` (rad/s).
+fn draw_phases<DB: DrawingBackend>(
+    bottom: &DrawingArea<DB, Shift>,
+    panel: &BodePanel,
+    phases: &[Vec<f64>],
+    (wlo, whi): (f64, f64),
+    (plo, phi): (f64, f64),
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let mut ph = ChartBuilder::on(bottom)
         .margin(6)
         // The last x label is centred on the axis' end: room for its right half.
         .margin_right(16)
@@ -295,7 +324,7 @@ where
         .axis_desc_style(("sans-serif", DESC))
         .draw()
         .map_err(e)?;
-    for (s, p) in panel.series.iter().zip(&phases) {
+    for (s, p) in panel.series.iter().zip(phases) {
         let pts: Vec<(f64, f64)> = s.omega.iter().copied().zip(p.iter().copied()).collect();
         draw_curve(&mut ph, s.style, s.color, &pts)?;
     }

@@ -13,15 +13,20 @@ use std::path::Path;
 /// A unit with a result.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Done {
+    /// The unit as the job lists it (id and expected cost).
     pub spec: UnitSpec,
+    /// The command's JSON for this unit.
     pub outcome: Value,
+    /// Wall time of the unit where it ran, s.
     pub wall_s: f64,
 }
 
 /// A unit whose result is an error (or whose file cannot be read).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Failed {
+    /// The unit's id.
     pub unit: String,
+    /// The error that stopped it, or why its file cannot be read.
     pub error: String,
     /// Its wall time, when its file says.
     pub wall_s: Option<f64>,
@@ -30,9 +35,11 @@ pub struct Failed {
 /// A job folder as a merge sees it, keyed by unit id.
 #[derive(Debug, Clone)]
 pub struct Collected {
+    /// The job (`job.json`).
     pub job: Job,
     /// Units with a result, in the job's order.
     pub done: Vec<Done>,
+    /// Units whose result is an error or whose file cannot be read.
     pub failed: Vec<Failed>,
     /// Units of the job without a result file.
     pub missing: Vec<String>,
@@ -114,10 +121,15 @@ pub fn collect(dir: &Path) -> Result<Collected> {
 /// The units' state, for a merge's `--json`.
 #[derive(Debug, Clone, Serialize)]
 pub struct UnitsSummary {
+    /// Units of the job.
     pub units: usize,
+    /// Units with a result.
     pub done: usize,
+    /// Units that failed, with their errors.
     pub failed: Vec<Failed>,
+    /// Ids of the units without a result file.
     pub missing: Vec<String>,
+    /// Ids of result files the job does not list.
     pub unknown: Vec<String>,
 }
 
@@ -152,6 +164,7 @@ impl Collected {
         cost_model(&self.times(), &WORKERS)
     }
 
+    /// The units' state: counts, failures, missing and unknown ids.
     pub fn summary(&self) -> UnitsSummary {
         UnitsSummary {
             units: self.job.units.len(),

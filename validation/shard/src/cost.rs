@@ -31,14 +31,18 @@ pub fn lpt_makespan(times: &[f64], workers: usize) -> f64 {
 /// The longest unit.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CriticalPath {
+    /// Its id.
     pub unit: String,
+    /// Its measured wall time, s: no schedule on any number of workers ends sooner.
     pub seconds: f64,
 }
 
 /// Predicted wall time on a number of workers.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Prediction {
+    /// Workers running units at once.
     pub workers: usize,
+    /// Wall time of the longest-processing-time-first schedule on them, s (no overhead).
     pub wall_s: f64,
 }
 
@@ -49,7 +53,9 @@ pub struct CostModel {
     pub units: usize,
     /// Sum of the unit times (one worker, no overhead).
     pub total_s: f64,
+    /// The longest unit (`None` without a measured time).
     pub critical_path: Option<CriticalPath>,
+    /// The predicted wall time per count of workers asked.
     pub predicted: Vec<Prediction>,
 }
 

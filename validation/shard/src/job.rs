@@ -31,10 +31,13 @@ pub enum JobKind {
 /// A job: its command, the command's parameters and its units.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Job {
+    /// Format tag of `job.json` ([`JOB_FORMAT`]).
     pub format: String,
+    /// The command that runs the units.
     pub kind: JobKind,
     /// The command's parameters: two runs with the same parameters are the same job.
     pub params: Value,
+    /// The units, in the job's order (the order of the merge).
     pub units: Vec<UnitSpec>,
 }
 
@@ -50,6 +53,7 @@ impl Job {
         })
     }
 
+    /// The unit of id `id`, if the job has it.
     pub fn unit(&self, id: &str) -> Option<&UnitSpec> {
         self.units.iter().find(|u| u.id == id)
     }
@@ -148,6 +152,7 @@ fn being_claimed(dir: &Path) -> bool {
 /// Which units a run takes.
 #[derive(Debug, Clone)]
 pub struct RunOptions {
+    /// The part of the job's partition to run (`--shard i/n`).
     pub shard: Shard,
     /// Only this unit (`--unit ID`: re-running one unit alone), whatever its shard.
     pub only: Option<String>,
@@ -163,8 +168,9 @@ pub struct RunOptions {
 /// What a run did.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ShardRun {
-    /// Units run, and of those the ones that failed.
+    /// Units run.
     pub ran: Vec<String>,
+    /// Of those, the ones that failed.
     pub failed: Vec<String>,
     /// Units left as they were ([`RunOptions::keep_done`]).
     pub kept: Vec<String>,

@@ -21,6 +21,8 @@
 //! keep it: the suites (`cargo xtask suite`), `cargo xtask fleet`, and the SABIAN twin's
 //! `calibrate-com`, which links MuJoCo and must not depend on the harness.
 
+#![warn(missing_docs)]
+
 pub mod cli;
 pub mod collect;
 pub mod cost;

@@ -9,11 +9,15 @@ use std::str::FromStr;
 /// expected cost (any unit of time; only ratios matter to the partition).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct UnitSpec {
+    /// The stable id: the name of the unit's result file.
     pub id: String,
+    /// Expected cost (any unit of time; only ratios matter).
     pub cost: f64,
 }
 
 impl UnitSpec {
+    /// The unit `id` of expected cost `cost` (checked when the job is made:
+    /// [`Job::new`](crate::Job::new)).
     pub fn new(id: impl Into<String>, cost: f64) -> UnitSpec {
         UnitSpec {
             id: id.into(),
@@ -63,6 +67,7 @@ impl Shard {
     /// The whole job (`1/1`).
     pub const WHOLE: Shard = Shard { index: 1, count: 1 };
 
+    /// Part `index` of `count`; an error unless `1 <= index <= count`.
     pub fn new(index: usize, count: usize) -> Result<Shard> {
         if count == 0 || index == 0 || index > count {
             bail!("--shard {index}/{count}: expected i/n with 1 <= i <= n");
@@ -75,6 +80,7 @@ impl Shard {
         self.index
     }
 
+    /// How many parts the job is split into.
     pub fn count(self) -> usize {
         self.count
     }
@@ -111,8 +117,9 @@ pub(crate) fn lpt_order(units: &[UnitSpec]) -> Vec<usize> {
     order
 }
 
-/// Splits the units into `n` parts balanced by expected cost: in [`lpt_order`], each unit goes
-/// to the part with the least expected cost so far (ties: the lowest part). Each part lists
+/// Splits the units into `n` parts balanced by expected cost: in longest-processing-time-first
+/// order (expected cost descending, ties by id ascending), each unit goes to the part with the
+/// least expected cost so far (ties: the lowest part). Each part lists
 /// its unit indices in the order it runs them (longest first). Deterministic: it depends on
 /// the ids and costs only, not on the units' order in the job.
 pub fn partition(units: &[UnitSpec], n: usize) -> Vec<Vec<usize>> {

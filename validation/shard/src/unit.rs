@@ -14,22 +14,34 @@ pub const UNITS_DIR: &str = "units";
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "status", rename_all = "snake_case")]
 pub enum Status {
-    Ok { outcome: Value },
-    Failed { error: String },
+    /// The unit finished.
+    Ok {
+        /// The command's JSON for this unit.
+        outcome: Value,
+    },
+    /// The unit stopped with an error (or panicked).
+    Failed {
+        /// The error's text.
+        error: String,
+    },
 }
 
 /// The content of a unit file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct UnitResult {
+    /// Format tag ([`UNIT_FORMAT`]).
     pub format: String,
+    /// The unit's id.
     pub id: String,
     /// Wall time of the unit (s), measured where it ran.
     pub wall_s: f64,
+    /// Its outcome or its error.
     #[serde(flatten)]
     pub status: Status,
 }
 
 impl UnitResult {
+    /// The result of unit `id` that took `wall_s` seconds, in the current format.
     pub fn new(id: &str, wall_s: f64, status: Status) -> UnitResult {
         UnitResult {
             format: UNIT_FORMAT.into(),
@@ -39,6 +51,7 @@ impl UnitResult {
         }
     }
 
+    /// Whether the unit finished (not failed).
     pub fn is_ok(&self) -> bool {
         matches!(self.status, Status::Ok { .. })
     }

@@ -157,56 +157,50 @@ impl ExperimentDesign {
     /// record, [`MAX_CAMPAIGN_ROWS`] in all and [`MAX_INTERNAL_STEPS`] plant steps. The message
     /// starts with the field.
     pub fn check(&self) -> Result<(), String> {
-        let range = |name: &str, v: f64, lo: f64, hi: f64, lo_open: bool| {
-            let above = if lo_open { v > lo } else { v >= lo };
-            if v.is_finite() && above && v <= hi {
-                Ok(())
-            } else {
-                let open = if lo_open { "(" } else { "[" };
-                Err(format!(
-                    "{name} = {v}: must be a finite number in {open}{lo}, {hi}]"
-                ))
-            }
-        };
-        let list = |name: &str, n: usize| {
-            if n == 0 {
-                Err(format!("{name} is empty"))
-            } else if n > MAX_LIST {
-                Err(format!("{name} has {n} entries; at most {MAX_LIST}"))
-            } else {
-                Ok(())
-            }
-        };
+        self.check_scalars()?;
+        self.check_records()?;
+        let steps_per_sample = self.check_sampling()?;
+        self.check_sizes(steps_per_sample)
+    }
+
+    /// The name's length, the sampling, timing, noise and quantisation ranges, the periods.
+    fn check_scalars(&self) -> Result<(), String> {
         if self.name.len() > 1000 {
             return Err(format!(
                 "name is {} bytes long; at most 1000",
                 self.name.len()
             ));
         }
-        range(
+        in_range(
             "sample_rate_hz",
             self.sample_rate_hz,
             0.0,
             MAX_SAMPLE_RATE_HZ,
             true,
         )?;
-        range("internal_step", self.internal_step, 0.0, 0.1, true)?;
-        range("transient_s", self.transient_s, 0.0, MAX_DURATION_S, false)?;
-        range(
+        in_range("internal_step", self.internal_step, 0.0, 0.1, true)?;
+        in_range("transient_s", self.transient_s, 0.0, MAX_DURATION_S, false)?;
+        in_range(
             "min_steady_s",
             self.min_steady_s,
             0.0,
             MAX_DURATION_S,
             false,
         )?;
-        range("zmp_noise_std", self.zmp_noise_std, 0.0, 1.0, false)?;
-        range("quantisation", self.quantisation, 0.0, 1.0, false)?;
+        in_range("zmp_noise_std", self.zmp_noise_std, 0.0, 1.0, false)?;
+        in_range("quantisation", self.quantisation, 0.0, 1.0, false)?;
         if self.periods == 0 || self.periods > MAX_PERIODS {
             return Err(format!(
                 "periods = {}: must be a whole number from 1 to {MAX_PERIODS}",
                 self.periods
             ));
         }
+        Ok(())
+    }
+
+    /// The grid (operating points, amplitudes, frequencies below Nyquist, excited axes) or
+    /// the listed records, not both; every entry in its range.
+    fn check_records(&self) -> Result<(), String> {
         let grid = !(self.operating_points.is_empty()
             && self.amplitudes.is_empty()
             && self.omegas.is_empty()
@@ -219,40 +213,20 @@ impl ExperimentDesign {
             );
         }
         let nyquist = std::f64::consts::PI * self.sample_rate_hz;
-        let omega = |name: &str, w: f64| {
-            if w.is_finite() && w > 0.0 && w < nyquist {
-                Ok(())
-            } else {
-                Err(format!(
-                    "{name} = {w}: must be a positive number below the Nyquist frequency \
-                     {nyquist} rad/s"
-                ))
-            }
-        };
-        let operating_point = |name: &str, op: &[f64; 2]| {
-            for (axis, v) in ["x", "y"].iter().zip(op) {
-                if !(v.is_finite() && v.abs() <= 10.0) {
-                    return Err(format!(
-                        "{name}.{axis} = {v}: must be a finite number in [-10, 10] m"
-                    ));
-                }
-            }
-            Ok(())
-        };
         if self.records.is_empty() {
-            list("operating_points", self.operating_points.len())?;
+            list_length("operating_points", self.operating_points.len())?;
             for (k, op) in self.operating_points.iter().enumerate() {
-                operating_point(&format!("operating_points[{k}]"), op)?;
+                check_operating_point(&format!("operating_points[{k}]"), op)?;
             }
-            list("amplitudes", self.amplitudes.len())?;
+            list_length("amplitudes", self.amplitudes.len())?;
             for (k, a) in self.amplitudes.iter().enumerate() {
-                range(&format!("amplitudes[{k}]"), *a, 0.0, 1.0, true)?;
+                in_range(&format!("amplitudes[{k}]"), *a, 0.0, 1.0, true)?;
             }
-            list("omegas", self.omegas.len())?;
+            list_length("omegas", self.omegas.len())?;
             for (k, w) in self.omegas.iter().enumerate() {
-                omega(&format!("omegas[{k}]"), *w)?;
+                below_nyquist(&format!("omegas[{k}]"), *w, nyquist)?;
             }
-            list("excited", self.excited.len())?;
+            list_length("excited", self.excited.len())?;
             if self.excited.len() > 2
                 || (self.excited.len() == 2 && self.excited[0] == self.excited[1])
             {
@@ -266,17 +240,25 @@ impl ExperimentDesign {
                 ));
             }
             for (k, r) in self.records.iter().enumerate() {
-                operating_point(&format!("records[{k}].operating_point"), &r.operating_point)?;
-                range(
+                check_operating_point(
+                    &format!("records[{k}].operating_point"),
+                    &r.operating_point,
+                )?;
+                in_range(
                     &format!("records[{k}].amplitude"),
                     r.amplitude,
                     0.0,
                     1.0,
                     true,
                 )?;
-                omega(&format!("records[{k}].omega"), r.omega)?;
+                below_nyquist(&format!("records[{k}].omega"), r.omega, nyquist)?;
             }
         }
+        Ok(())
+    }
+
+    /// The sample period must be a whole number of internal steps; that number.
+    fn check_sampling(&self) -> Result<f64, String> {
         let dt = 1.0 / self.sample_rate_hz;
         let ratio = dt / self.internal_step;
         if (ratio - ratio.round()).abs() > 1e-9 * ratio.max(1.0) || ratio.round() < 1.0 {
@@ -286,8 +268,13 @@ impl ExperimentDesign {
                 self.internal_step
             ));
         }
-        // Sizes: a record's rows, the campaign's rows and the plant steps, before anything is
-        // allocated. Per frequency, how many records are at it.
+        Ok(ratio.round())
+    }
+
+    /// Sizes: a record's rows, the campaign's rows and the plant steps (`steps_per_sample`
+    /// per row), before anything is allocated.
+    fn check_sizes(&self, steps_per_sample: f64) -> Result<(), String> {
+        // Per frequency, how many records are at it.
         let (sizes, fields): (Vec<(f64, f64)>, &str) = if self.records.is_empty() {
             let per_set =
                 (self.operating_points.len() * self.amplitudes.len() * self.excited.len()) as f64;
@@ -329,7 +316,7 @@ impl ExperimentDesign {
                  {MAX_CAMPAIGN_ROWS:.0e}"
             ));
         }
-        let steps = total_rows * ratio.round();
+        let steps = total_rows * steps_per_sample;
         if steps > MAX_INTERNAL_STEPS as f64 {
             return Err(format!(
                 "internal_step = {} s: the campaign would take {steps:.3e} plant steps; at most \
@@ -339,6 +326,54 @@ impl ExperimentDesign {
         }
         Ok(())
     }
+}
+
+/// `v` must be finite and in `(lo, hi]` (`lo_open`) or `[lo, hi]`; the message names `name`.
+fn in_range(name: &str, v: f64, lo: f64, hi: f64, lo_open: bool) -> Result<(), String> {
+    let above = if lo_open { v > lo } else { v >= lo };
+    if v.is_finite() && above && v <= hi {
+        Ok(())
+    } else {
+        let open = if lo_open { "(" } else { "[" };
+        Err(format!(
+            "{name} = {v}: must be a finite number in {open}{lo}, {hi}]"
+        ))
+    }
+}
+
+/// A list of `n` entries must hold 1 to [`MAX_LIST`].
+fn list_length(name: &str, n: usize) -> Result<(), String> {
+    if n == 0 {
+        Err(format!("{name} is empty"))
+    } else if n > MAX_LIST {
+        Err(format!("{name} has {n} entries; at most {MAX_LIST}"))
+    } else {
+        Ok(())
+    }
+}
+
+/// A frequency `w` (rad/s) must be positive and below the Nyquist frequency `nyquist` (rad/s).
+fn below_nyquist(name: &str, w: f64, nyquist: f64) -> Result<(), String> {
+    if w.is_finite() && w > 0.0 && w < nyquist {
+        Ok(())
+    } else {
+        Err(format!(
+            "{name} = {w}: must be a positive number below the Nyquist frequency \
+             {nyquist} rad/s"
+        ))
+    }
+}
+
+/// An operating point's coordinates (m) must be finite and within 10 m.
+fn check_operating_point(name: &str, op: &[f64; 2]) -> Result<(), String> {
+    for (axis, v) in ["x", "y"].iter().zip(op) {
+        if !(v.is_finite() && v.abs() <= 10.0) {
+            return Err(format!(
+                "{name}.{axis} = {v}: must be a finite number in [-10, 10] m"
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Longest list in a design (operating points, amplitudes, frequencies).

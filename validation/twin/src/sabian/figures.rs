@@ -10,9 +10,21 @@ use zmp_report::plot::{time_svg, Style, TimePanel, TimeSeries, PALETTE};
 
 /// The SVG figures (written into `dir`).
 pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {
-    let mut files = Vec::new();
-    // Error ellipses (2 sigma, from the reported covariance averaged over the draws) and the
-    // draws, relative to the true CoM, in mm; each design on its own scale.
+    let mut files = vec![error_ellipses(o, dir, force)?, walk_zmp_y(o, dir, force)?];
+    files.extend(walk_zmp_xy(o, dir, force)?);
+    files.push(walk_zmp_contact(o, dir, force)?);
+    files.push(torso_shift(o, dir, force)?);
+    Ok(files)
+}
+
+/// The walking traces' sample times, s (the controller's 30 ms period).
+fn sample_times(n: usize) -> Vec<f64> {
+    (0..n).map(|k| k as f64 * 0.03).collect()
+}
+
+/// Error ellipses (2 sigma, from the reported covariance averaged over the draws) and the
+/// draws, relative to the true CoM, in mm; each design on its own scale.
+fn error_ellipses(o: &Outcome, dir: &Path, force: bool) -> Result<PathBuf> {
     let c = &o.calibration;
     let mut panels = Vec::new();
     let names = ["x", "y", "z"];
@@ -40,10 +52,11 @@ pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {
     }
     let p = dir.join("com-error-ellipses.svg");
     time_svg(&p, &panels, force)?;
-    files.push(p);
+    Ok(p)
+}
 
-    let t = |n: usize| (0..n).map(|k| k as f64 * 0.03).collect::<Vec<f64>>();
-    // Figure 5: ZMP y, ideal and real (mean of the runs), per model.
+/// Figure 5: ZMP y, ideal and real (mean of the runs), per model.
+fn walk_zmp_y(o: &Outcome, dir: &Path, force: bool) -> Result<PathBuf> {
     let mut panels = Vec::new();
     for (k, m) in o.walking.iter().enumerate() {
         let (ideal, real) = mean_traces(m);
@@ -54,14 +67,14 @@ pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {
             series: vec![
                 TimeSeries {
                     label: "ideal".into(),
-                    t: t(n),
+                    t: sample_times(n),
                     y: ideal.iter().map(|p| p[1]).collect(),
                     color: PALETTE[5],
                     style: Style::Dashed,
                 },
                 TimeSeries {
                     label: "real (sensors)".into(),
-                    t: t(n),
+                    t: sample_times(n),
                     y: real.iter().map(|p| p[1]).collect(),
                     color: PALETTE[k % 5],
                     style: Style::Line,
@@ -72,8 +85,11 @@ pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {
     }
     let p = dir.join("walk-zmp-y.svg");
     time_svg(&p, &panels, force)?;
-    files.push(p);
-    // Figures 6-7: XY path and its error for r and s.
+    Ok(p)
+}
+
+/// Figures 6-7: the XY path and its error for models r and s.
+fn walk_zmp_xy(o: &Outcome, dir: &Path, force: bool) -> Result<[PathBuf; 2]> {
     let pick: Vec<&ModelOutcome> = o
         .walking
         .iter()
@@ -107,7 +123,7 @@ pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {
         });
         err.push(TimeSeries {
             label: format!("model {}", m.name),
-            t: t(ideal.len()),
+            t: sample_times(ideal.len()),
             y: ideal
                 .iter()
                 .zip(&real)
@@ -119,10 +135,9 @@ pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {
     }
     let p = dir.join("walk-zmp-xy.svg");
     time_svg(&p, &xy, force)?;
-    files.push(p);
-    let p = dir.join("walk-zmp-xy-error.svg");
+    let e = dir.join("walk-zmp-xy-error.svg");
     time_svg(
-        &p,
+        &e,
         &[TimePanel {
             title: "distance between ideal and real ZMP (with TPC)".into(),
             y_label: "|error| (m)".into(),
@@ -131,8 +146,11 @@ pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {
         }],
         force,
     )?;
-    files.push(p);
-    // Figure 8: all models around a foot-ground contact (the third step's landing).
+    Ok([p, e])
+}
+
+/// Figure 8: all models around a foot-ground contact (the third step's landing).
+fn walk_zmp_contact(o: &Outcome, dir: &Path, force: bool) -> Result<PathBuf> {
     let mut series = Vec::new();
     let mut ideal_done = false;
     for (k, m) in o.walking.iter().enumerate() {
@@ -168,9 +186,7 @@ pub fn figures(o: &Outcome, dir: &Path, force: bool) -> Result<Vec<PathBuf>> {
         }],
         force,
     )?;
-    files.push(p);
-    files.push(torso_shift(o, dir, force)?);
-    Ok(files)
+    Ok(p)
 }
 
 /// The Torso Position Control's shift per model (mean of the runs), x and y.

@@ -19,9 +19,11 @@
 //! wrote it (it holds [`MARKER`]).
 
 use super::campaign::{run_campaign, TwinDesign};
-use super::closed_loop::{compare, experiment, run_model, run_twin, TwinRun};
-use super::crosscheck::{budget, dynamic_check, static_check};
-use super::props::{mass_properties, predict};
+use super::closed_loop::{compare, experiment, run_model, run_twin, LoopComparison, TwinRun};
+use super::crosscheck::{
+    budget, dynamic_check, static_check, BudgetRow, DynamicCheck, StaticCheck,
+};
+use super::props::{mass_properties, predict, MassProperties, OperatingPoint};
 use super::report;
 use super::summary::{parameter_rows, summarise_diagnosis};
 pub use super::summary::{
@@ -33,9 +35,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use zmp_campaign::write_campaign;
-use zmp_diagnose::{diagnose, DiagnoseOptions};
-use zmp_identify::{identify_with_progress, IdentifyOptions};
+use zmp_campaign::{write_campaign, Campaign};
+use zmp_diagnose::{diagnose, DiagnoseOptions, Diagnosis};
+use zmp_identify::{identify_with_progress, Identification, IdentifyOptions};
+use zmp_models::closed_loop::StepExperiment;
 use zmp_models::Axis;
 
 /// `format` of `summary.json`.
@@ -147,182 +150,23 @@ fn build(opts: &ValidateOptions, dir: &Path, started: Instant) -> Result<Summary
     // 1. The twin and its predictions.
     let twin = Silo2::load(&opts.model)?;
     let props = mass_properties(&twin)?;
-    let mut design = if opts.short {
-        TwinDesign::short()
-    } else if opts.extended {
-        TwinDesign::extended()
-    } else {
-        TwinDesign::full()
-    };
-    design.sensor.delay = opts.zmp_delay;
-    let predictions = design
-        .operating_points
-        .iter()
-        .map(|&op| predict(&twin, &props, op))
-        .collect::<Result<Vec<_>, _>>()?;
-    let upright = predict(&twin, &props, [props.com_upright[0], props.com_upright[1]])?;
-    say(&format!(
-        "SILO2 twin: {:.2} kg, trunk {:.2} kg ({:.1} %), l_t = {:.3} m; predicted a11 = {:.4}, \
-         b11 = {:.4} s2 (seed eq. 15: b = {:.4} s2)",
-        props.total_mass,
-        props.trunk_mass,
-        100.0 * props.trunk_mass_ratio,
-        props.trunk_lever,
-        upright.servo.a[0][0],
-        upright.servo.b[0][0],
-        upright.seed.b[0][0]
-    ));
+    let design = design_of(opts);
+    let (predictions, upright) = predictions(&twin, &props, &design, &say)?;
 
-    // 2. The ZMP measurement: eq. 10 at the operating points (3 even in the short run), a
-    // dynamic cross-check per axis, the contact-softness budget.
-    let eq10_points: Vec<[f64; 2]> = TwinDesign::full().operating_points;
-    let pb = bar(opts.quiet, eq10_points.len() as u64 + 2, "ZMP checks");
-    let eq10 = zmp_campaign::par::try_parallel_map(eq10_points.len(), opts.threads, |k| {
-        let r = static_check(&twin, &props, eq10_points[k], 2.5, 0.5);
-        pb.inc(1);
-        r
-    })?;
-    let dynamic = zmp_campaign::par::try_parallel_map(2, opts.threads, |k| {
-        let axis = if k == 0 { Axis::X } else { Axis::Y };
-        let r = dynamic_check(&twin, &props, axis, 6.0, 0.0035, 3);
-        pb.inc(1);
-        r
-    })?;
-    pb.finish_and_clear();
-    let (timeconsts, probes): (Vec<f64>, Vec<(Axis, f64)>) = if opts.short {
-        (
-            vec![0.002, 0.005, 0.01],
-            vec![(Axis::X, 6.0), (Axis::Y, 6.0)],
-        )
-    } else {
-        (
-            vec![0.002, 0.005, 0.01, 0.02],
-            vec![
-                (Axis::X, 3.0),
-                (Axis::X, 10.0),
-                (Axis::Y, 3.0),
-                (Axis::Y, 10.0),
-            ],
-        )
-    };
-    let pb = bar(opts.quiet, 1, "softness");
-    let budget_rows = budget(
-        &twin,
-        &props,
-        &timeconsts,
-        TwinDesign::full().operating_points[1],
-        &probes,
-        0.0015,
-        opts.threads,
-    )?;
-    pb.finish_and_clear();
-    let worst_static = eq10
-        .iter()
-        .map(|s| s.max_cells_minus_cop)
-        .fold(0.0, f64::max);
-    say(&format!(
-        "ZMP: load cells within {:.3} mm of MuJoCo's centre of pressure at rest (3 operating points)",
-        worst_static * 1e3
-    ));
+    // 2. The ZMP measurement.
+    let checks = zmp_checks(opts, &twin, &props, &say)?;
 
     // 3. Campaign and identification.
-    let t_camp = Instant::now();
-    let metas = design.records().len();
-    let pb = bar(opts.quiet, metas as u64, "campaign");
-    let camp = run_campaign(&twin, &props, &design, opts.threads, &|d| {
-        pb.set_position(d as u64)
-    })?;
-    pb.finish_and_clear();
-    let campaign_wall = t_camp.elapsed().as_secs_f64();
-    let camp_dir = dir.join("campaign");
-    write_campaign(&camp_dir, &camp, false)?;
-    let rows: usize = camp.records.iter().map(|r| r.len()).sum();
-    say(&format!(
-        "campaign: {} records, {rows} rows, {:.0} s simulated in {campaign_wall:.1} s",
-        camp.records.len(),
-        design.simulated_seconds()
-    ));
-    let shown_campaign = opts.out.join("campaign");
-    let iopts = IdentifyOptions {
-        campaign_path: Some(shown_campaign.clone()),
-        threads: Some(opts.threads),
-        ..IdentifyOptions::default()
-    };
-    let pb = bar(opts.quiet, camp.records.len() as u64, "identify");
-    let ident = identify_with_progress(&camp, &iopts, &|d| pb.set_position(d as u64))?;
-    pb.finish_and_clear();
-    zmp_identify::write_model(&ident, &dir.join("identified.toml"), false)?;
-    zmp_report::identify::write_report(&ident, &dir.join("identify"), false)?;
+    let (camp, campaign, ident) =
+        campaign_and_identification(opts, &dir, &twin, &props, &design, &say)?;
 
-    // 4. Closed loop, twin and model. The twin's run and the diagnosis are independent: run
-    // them side by side.
-    let exp = experiment(&twin, &props, &upright)?;
-    let dopts = DiagnoseOptions {
-        campaign_path: shown_campaign.display().to_string(),
-        model_path: opts.out.join("identified.toml").display().to_string(),
-        threads: opts.threads.saturating_sub(1).max(1),
-        ..DiagnoseOptions::default()
-    };
-    let pb = bar(opts.quiet, 2, "loop+diag");
-    let mut states: Vec<FrameState> = Vec::new();
-    let (twin_run, diag) = std::thread::scope(|s| {
-        let h = s.spawn(|| {
-            let t0 = Instant::now();
-            let r = run_twin(
-                &twin,
-                &props,
-                &exp,
-                design.sensor,
-                &FRAME_TIMES,
-                &mut |t, d| {
-                    states.push(FrameState {
-                        t,
-                        qpos: d.qpos().to_vec(),
-                        loaded: t >= exp.load_time,
-                    });
-                    Ok(())
-                },
-            );
-            pb.inc(1);
-            r.map(|r| (r, t0.elapsed().as_secs_f64()))
-        });
-        let diag = diagnose(&camp, &ident.model, &dopts, &|_| {});
-        pb.inc(1);
-        let twin_run = h.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
-        (twin_run, diag)
-    });
-    pb.finish_and_clear();
-    let (twin_run, loop_wall): (TwinRun, f64) = twin_run?;
-    let diag = diag?;
-    let model_trace = run_model(&ident.model, &props, &exp)?;
-    let comparison = compare(&twin_run, &model_trace, &exp);
-    report::closed_loop_svg(&dir.join("closed_loop.svg"), &twin_run, &model_trace, &exp)?;
-    say(&format!(
-        "closed loop: twin reaches the new reference at {:.1} s (model {:.1} s), 4 kg load: \
-         peak error {:.1} mm, final error {:.2} mm; twin against model NRMSE {:.4} (noise floor {:.4})",
-        comparison.twin.reach_time_s,
-        comparison.model.reach_time_s,
-        comparison.twin.load_peak_error_m * 1e3,
-        comparison.twin.final_error_m * 1e3,
-        comparison.nrmse_x,
-        comparison.noise_floor_x
-    ));
+    // 4. Closed loop, twin and model, beside the diagnosis.
+    let run = closed_loop_and_diagnosis(opts, &twin, &props, &upright, &design, &camp, &ident)?;
+    let (exp, diag) = (run.exp, run.diag);
+    let comparison = closed_loop_comparison(&dir, &ident, &props, &exp, &run.twin_run, &say)?;
 
     // 5. Diagnosis.
-    zmp_report::diagnose::write_diagnosis_report(&camp, &diag, &dir.join("diagnosis"), false)?;
-    let final_model = if diag.selected.is_empty() {
-        None
-    } else {
-        let names: Vec<&str> = diag.selected.iter().map(|(c, _)| c.name()).collect();
-        let file = PathBuf::from(format!("identified+{}.toml", names.join("+")));
-        zmp_files::write_file(
-            &dir.join(&file),
-            zmp_files::Kind::Model,
-            diag.final_model.to_toml().as_bytes(),
-            false,
-        )?;
-        Some(file)
-    };
+    let final_model = write_diagnosis(&dir, &camp, &diag)?;
     let diagnosis = summarise_diagnosis(&diag, final_model);
     say(&format!(
         "diagnosis: {} (error {:.2}x the noise floor -> {:.2}x)",
@@ -347,7 +191,7 @@ fn build(opts: &ValidateOptions, dir: &Path, started: Instant) -> Result<Summary
     }
 
     // 6. Frames.
-    let (frames, frames_note) = make_frames(opts, &dir, &states);
+    let (frames, frames_note) = make_frames(opts, &dir, &run.states);
 
     // 7. Report.
     let summary = Summary {
@@ -358,16 +202,10 @@ fn build(opts: &ValidateOptions, dir: &Path, started: Instant) -> Result<Summary
         output: opts.out.clone(),
         mass: props,
         predictions,
-        eq10,
-        dynamic,
-        budget: budget_rows,
-        campaign: CampaignSummary {
-            records: camp.records.len(),
-            rows,
-            simulated_s: design.simulated_seconds(),
-            wall_s: campaign_wall,
-            sensor: design.sensor.describe(),
-        },
+        eq10: checks.eq10,
+        dynamic: checks.dynamic,
+        budget: checks.budget,
+        campaign,
         parameters,
         reduced_chi2: ident.reduced_chi2,
         excluded_records: ident
@@ -379,7 +217,7 @@ fn build(opts: &ValidateOptions, dir: &Path, started: Instant) -> Result<Summary
         closed_loop: ClosedLoopSummary {
             experiment: (&exp).into(),
             comparison,
-            wall_s: loop_wall,
+            wall_s: run.loop_wall,
         },
         diagnosis,
         stance,
@@ -395,6 +233,286 @@ fn build(opts: &ValidateOptions, dir: &Path, started: Instant) -> Result<Summary
         false,
     )?;
     Ok(summary)
+}
+
+/// The campaign the options ask for (short, extended or full), with their ZMP delay.
+fn design_of(opts: &ValidateOptions) -> TwinDesign {
+    let mut design = if opts.short {
+        TwinDesign::short()
+    } else if opts.extended {
+        TwinDesign::extended()
+    } else {
+        TwinDesign::full()
+    };
+    design.sensor.delay = opts.zmp_delay;
+    design
+}
+
+/// What the twin's mass properties predict at the design's operating points and upright
+/// (said in one line).
+fn predictions(
+    twin: &Silo2,
+    props: &MassProperties,
+    design: &TwinDesign,
+    say: &dyn Fn(&str),
+) -> Result<(Vec<OperatingPoint>, OperatingPoint)> {
+    let predictions = design
+        .operating_points
+        .iter()
+        .map(|&op| predict(twin, props, op))
+        .collect::<Result<Vec<_>, _>>()?;
+    let upright = predict(twin, props, [props.com_upright[0], props.com_upright[1]])?;
+    say(&format!(
+        "SILO2 twin: {:.2} kg, trunk {:.2} kg ({:.1} %), l_t = {:.3} m; predicted a11 = {:.4}, \
+         b11 = {:.4} s2 (seed eq. 15: b = {:.4} s2)",
+        props.total_mass,
+        props.trunk_mass,
+        100.0 * props.trunk_mass_ratio,
+        props.trunk_lever,
+        upright.servo.a[0][0],
+        upright.servo.b[0][0],
+        upright.seed.b[0][0]
+    ));
+    Ok((predictions, upright))
+}
+
+/// The checks of the ZMP measurement (step 2).
+struct ZmpChecks {
+    /// Eq. 10 at the full design's operating points.
+    eq10: Vec<StaticCheck>,
+    /// The dynamic cross-check per axis.
+    dynamic: Vec<DynamicCheck>,
+    /// The contact-softness budget.
+    budget: Vec<BudgetRow>,
+}
+
+/// The ZMP measurement: eq. 10 at the operating points (3 even in the short run), a dynamic
+/// cross-check per axis, the contact-softness budget.
+fn zmp_checks(
+    opts: &ValidateOptions,
+    twin: &Silo2,
+    props: &MassProperties,
+    say: &dyn Fn(&str),
+) -> Result<ZmpChecks> {
+    let eq10_points: Vec<[f64; 2]> = TwinDesign::full().operating_points;
+    let pb = bar(opts.quiet, eq10_points.len() as u64 + 2, "ZMP checks");
+    let eq10 = zmp_campaign::par::try_parallel_map(eq10_points.len(), opts.threads, |k| {
+        let r = static_check(twin, props, eq10_points[k], 2.5, 0.5);
+        pb.inc(1);
+        r
+    })?;
+    let dynamic = zmp_campaign::par::try_parallel_map(2, opts.threads, |k| {
+        let axis = if k == 0 { Axis::X } else { Axis::Y };
+        let r = dynamic_check(twin, props, axis, 6.0, 0.0035, 3);
+        pb.inc(1);
+        r
+    })?;
+    pb.finish_and_clear();
+    let (timeconsts, probes): (Vec<f64>, Vec<(Axis, f64)>) = if opts.short {
+        (
+            vec![0.002, 0.005, 0.01],
+            vec![(Axis::X, 6.0), (Axis::Y, 6.0)],
+        )
+    } else {
+        (
+            vec![0.002, 0.005, 0.01, 0.02],
+            vec![
+                (Axis::X, 3.0),
+                (Axis::X, 10.0),
+                (Axis::Y, 3.0),
+                (Axis::Y, 10.0),
+            ],
+        )
+    };
+    let pb = bar(opts.quiet, 1, "softness");
+    let budget_rows = budget(
+        twin,
+        props,
+        &timeconsts,
+        TwinDesign::full().operating_points[1],
+        &probes,
+        0.0015,
+        opts.threads,
+    )?;
+    pb.finish_and_clear();
+    let worst_static = eq10
+        .iter()
+        .map(|s| s.max_cells_minus_cop)
+        .fold(0.0, f64::max);
+    say(&format!(
+        "ZMP: load cells within {:.3} mm of MuJoCo's centre of pressure at rest (3 operating points)",
+        worst_static * 1e3
+    ));
+    Ok(ZmpChecks {
+        eq10,
+        dynamic,
+        budget: budget_rows,
+    })
+}
+
+/// The stepped-sine campaign on the twin, written to `dir/campaign`, and its identification
+/// (`identified.toml`, `identify/`).
+fn campaign_and_identification(
+    opts: &ValidateOptions,
+    dir: &Path,
+    twin: &Silo2,
+    props: &MassProperties,
+    design: &TwinDesign,
+    say: &dyn Fn(&str),
+) -> Result<(Campaign, CampaignSummary, Identification)> {
+    let t_camp = Instant::now();
+    let metas = design.records().len();
+    let pb = bar(opts.quiet, metas as u64, "campaign");
+    let camp = run_campaign(twin, props, design, opts.threads, &|d| {
+        pb.set_position(d as u64)
+    })?;
+    pb.finish_and_clear();
+    let campaign_wall = t_camp.elapsed().as_secs_f64();
+    let camp_dir = dir.join("campaign");
+    write_campaign(&camp_dir, &camp, false)?;
+    let rows: usize = camp.records.iter().map(|r| r.len()).sum();
+    say(&format!(
+        "campaign: {} records, {rows} rows, {:.0} s simulated in {campaign_wall:.1} s",
+        camp.records.len(),
+        design.simulated_seconds()
+    ));
+    let shown_campaign = opts.out.join("campaign");
+    let iopts = IdentifyOptions {
+        campaign_path: Some(shown_campaign.clone()),
+        threads: Some(opts.threads),
+        ..IdentifyOptions::default()
+    };
+    let pb = bar(opts.quiet, camp.records.len() as u64, "identify");
+    let ident = identify_with_progress(&camp, &iopts, &|d| pb.set_position(d as u64))?;
+    pb.finish_and_clear();
+    zmp_identify::write_model(&ident, &dir.join("identified.toml"), false)?;
+    zmp_report::identify::write_report(&ident, &dir.join("identify"), false)?;
+    let campaign = CampaignSummary {
+        records: camp.records.len(),
+        rows,
+        simulated_s: design.simulated_seconds(),
+        wall_s: campaign_wall,
+        sensor: design.sensor.describe(),
+    };
+    Ok((camp, campaign, ident))
+}
+
+/// The closed loop on the twin and the diagnosis, run side by side (they are independent).
+struct LoopAndDiagnosis {
+    /// The disturbance experiment.
+    exp: StepExperiment,
+    /// The twin's run of it.
+    twin_run: TwinRun,
+    /// Wall time of the twin's run, s.
+    loop_wall: f64,
+    /// The diagnosis of the identified model on the campaign.
+    diag: Diagnosis,
+    /// The robot's posture at the frame times.
+    states: Vec<FrameState>,
+}
+
+/// Step 4: the twin's closed-loop run (its frames' states captured) beside the diagnosis.
+fn closed_loop_and_diagnosis(
+    opts: &ValidateOptions,
+    twin: &Silo2,
+    props: &MassProperties,
+    upright: &OperatingPoint,
+    design: &TwinDesign,
+    camp: &Campaign,
+    ident: &Identification,
+) -> Result<LoopAndDiagnosis> {
+    let shown_campaign = opts.out.join("campaign");
+    let exp = experiment(twin, props, upright)?;
+    let dopts = DiagnoseOptions {
+        campaign_path: shown_campaign.display().to_string(),
+        model_path: opts.out.join("identified.toml").display().to_string(),
+        threads: opts.threads.saturating_sub(1).max(1),
+        ..DiagnoseOptions::default()
+    };
+    let pb = bar(opts.quiet, 2, "loop+diag");
+    let mut states: Vec<FrameState> = Vec::new();
+    let (twin_run, diag) = std::thread::scope(|s| {
+        let h = s.spawn(|| {
+            let t0 = Instant::now();
+            let r = run_twin(
+                twin,
+                props,
+                &exp,
+                design.sensor,
+                &FRAME_TIMES,
+                &mut |t, d| {
+                    states.push(FrameState {
+                        t,
+                        qpos: d.qpos().to_vec(),
+                        loaded: t >= exp.load_time,
+                    });
+                    Ok(())
+                },
+            );
+            pb.inc(1);
+            r.map(|r| (r, t0.elapsed().as_secs_f64()))
+        });
+        let diag = diagnose(camp, &ident.model, &dopts, &|_| {});
+        pb.inc(1);
+        let twin_run = h.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
+        (twin_run, diag)
+    });
+    pb.finish_and_clear();
+    let (twin_run, loop_wall): (TwinRun, f64) = twin_run?;
+    let diag = diag?;
+    Ok(LoopAndDiagnosis {
+        exp,
+        twin_run,
+        loop_wall,
+        diag,
+        states,
+    })
+}
+
+/// The identified model's run of the experiment against the twin's, drawn into
+/// `closed_loop.svg` and said in one line.
+fn closed_loop_comparison(
+    dir: &Path,
+    ident: &Identification,
+    props: &MassProperties,
+    exp: &StepExperiment,
+    twin_run: &TwinRun,
+    say: &dyn Fn(&str),
+) -> Result<LoopComparison> {
+    let model_trace = run_model(&ident.model, props, exp)?;
+    let comparison = compare(twin_run, &model_trace, exp);
+    report::closed_loop_svg(&dir.join("closed_loop.svg"), twin_run, &model_trace, exp)?;
+    say(&format!(
+        "closed loop: twin reaches the new reference at {:.1} s (model {:.1} s), 4 kg load: \
+         peak error {:.1} mm, final error {:.2} mm; twin against model NRMSE {:.4} (noise floor {:.4})",
+        comparison.twin.reach_time_s,
+        comparison.model.reach_time_s,
+        comparison.twin.load_peak_error_m * 1e3,
+        comparison.twin.final_error_m * 1e3,
+        comparison.nrmse_x,
+        comparison.noise_floor_x
+    ));
+    Ok(comparison)
+}
+
+/// The diagnosis report (`diagnosis/`) and, when effects were found, the model with them
+/// (`identified+<effects>.toml`, its name returned).
+fn write_diagnosis(dir: &Path, camp: &Campaign, diag: &Diagnosis) -> Result<Option<PathBuf>> {
+    zmp_report::diagnose::write_diagnosis_report(camp, diag, &dir.join("diagnosis"), false)?;
+    let final_model = if diag.selected.is_empty() {
+        None
+    } else {
+        let names: Vec<&str> = diag.selected.iter().map(|(c, _)| c.name()).collect();
+        let file = PathBuf::from(format!("identified+{}.toml", names.join("+")));
+        zmp_files::write_file(
+            &dir.join(&file),
+            zmp_files::Kind::Model,
+            diag.final_model.to_toml().as_bytes(),
+            false,
+        )?;
+        Some(file)
+    };
+    Ok(final_model)
 }
 
 /// Renders the frames in a child process; returns the files (relative) or why there are none.
