@@ -32,6 +32,7 @@ mod toml_out;
 
 use crate::measure::Prediction;
 use crate::observe::Observation;
+use crate::profiles::DataRange;
 use crate::run::{check_inputs, observe_campaign, DiagnoseError, DiagnoseOptions};
 use limits::{centres, Candidate, Limits, RecordTiming};
 use noise::NoiseModel;
@@ -324,7 +325,7 @@ fn check(obs: &[&Observation], rivals: &[Rival], opts: &DesignOptions) -> Result
 /// follow.
 fn parts(spec: &ModelSpec) -> Vec<String> {
     // The names alone: the records only bound the parameters.
-    let mut names: Vec<String> = separation::refit_frees(spec, &[])
+    let mut names: Vec<String> = crate::fit::all_frees(spec, &DataRange::for_names())
         .iter()
         .map(|f| f.name())
         .collect();

