@@ -4,7 +4,8 @@
 //! `ambiguous`. The design file is written into the loop's folder (and listed in its marker),
 //! parses with both simulators' readers, its records run (`simulate --design --append` on the
 //! robot the campaign was measured on) and append to the campaign; the `--json` summary and
-//! the report carry the predicted separation; a second run without `--force` is refused.
+//! the report carry the predicted separation; on the campaign with the records appended the
+//! loop names the robot's delay and drift alone; a second run without `--force` is refused.
 //!
 //! On this campaign `design_next` stops today on an internal error (a panic in
 //! `zmp_diagnose::design`, reported to its owner): the full test is ignored as a known
@@ -150,6 +151,19 @@ fn an_ambiguous_loop_writes_the_experiment_that_decides() {
     let extended = zmp_campaign::read_campaign(&dir.join("extended")).unwrap();
     let base = zmp_campaign::read_campaign(&dir.join(camp)).unwrap();
     assert_eq!(extended.records.len(), base.records.len() + records.len());
+
+    // On the extended campaign the loop names the robot's effects alone: the set is decided.
+    let out = ok(
+        xtask(&["loop", "extended", "--out", "lp2", "--json"], dir),
+        "loop on the extended campaign",
+    );
+    let v2: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v2["outcome"], "explained", "{out}");
+    assert_eq!(
+        v2["found"],
+        serde_json::json!(["time_delay", "sensor_drift"]),
+        "{out}"
+    );
 
     // The folder is not replaced without --force.
     let again = xtask(&["loop", camp, "--out", "lp", "--json"], dir);

@@ -121,12 +121,17 @@ fn esc(s: &str) -> String {
         .replace('>', "&gt;")
 }
 
-/// Adds `line` as a paragraph at the end of the report page `html` (before `</body>`).
+/// Adds `line` as a paragraph to the report page `html`, under its verdict (the paragraph of
+/// class `v`; at the end of the page if it has none).
 pub(super) fn add_to_report(html: &Path, line: &str) -> Result<()> {
     let page = zmp_files::read_limited_text(html, 64 << 20, "a report page")?;
-    let at = page.rfind("</body>").unwrap_or(page.len());
+    let at = page
+        .find("<p class=\"v\">")
+        .and_then(|v| page[v..].find("</p>").map(|e| v + e + "</p>".len()))
+        .or_else(|| page.rfind("</body>"))
+        .unwrap_or(page.len());
     let page = format!(
-        "{}<p class=\"design-next\">{line}</p>\n{}",
+        "{}\n<p class=\"design-next\">{line}</p>{}",
         &page[..at],
         &page[at..]
     );
