@@ -199,21 +199,8 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     let (chain, final_model) = write_chain(&r, a.campaign, &identified, &mut own, &say)?;
     versions.extend(chain);
     let alternatives = write_alternatives(&r, a.campaign, &identified, &mut own, &say)?;
-    let obs: Vec<&Observation> = r.observations.iter().collect();
-    let final_preds = zmp_diagnose::measure::predict(&r.final_model, &obs)?;
-    let still_failing: Vec<String> = zmp_diagnose::cells::cells(&obs, &final_preds)
-        .iter()
-        .filter(|c| c.significant)
-        .take(8)
-        .map(|c| c.line())
-        .collect();
-    let history = out.join("history.svg");
-    own.note("file svg history.svg".into())?;
-    if quiet {
-        history_plot(&final_model, Some(&history), true)?;
-    } else {
-        history_cmd(&final_model, Some(&history), true, false)?;
-    }
+    let still_failing = still_failing(&r)?;
+    let history = write_history(out, &final_model, &mut own, quiet)?;
     let outcome = r.outcome;
     say(&format!(
         "outcome: {}{}",
@@ -280,6 +267,36 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         robust: zmp_report::robust::summary(&robust),
         design_next,
     })
+}
+
+/// Where the last model still fails (one line per significant cell, at most eight).
+fn still_failing(r: &LoopResult) -> Result<Vec<String>> {
+    let obs: Vec<&Observation> = r.observations.iter().collect();
+    let final_preds = zmp_diagnose::measure::predict(&r.final_model, &obs)?;
+    Ok(zmp_diagnose::cells::cells(&obs, &final_preds)
+        .iter()
+        .filter(|c| c.significant)
+        .take(8)
+        .map(|c| c.line())
+        .collect())
+}
+
+/// Writes the waterfall of the ledger up to `final_model` (`history.svg`; its table printed
+/// unless `quiet`).
+fn write_history(
+    out: &Path,
+    final_model: &Path,
+    own: &mut OwnFiles,
+    quiet: bool,
+) -> Result<PathBuf> {
+    let history = out.join("history.svg");
+    own.note("file svg history.svg".into())?;
+    if quiet {
+        history_plot(final_model, Some(&history), true)?;
+    } else {
+        history_cmd(final_model, Some(&history), true, false)?;
+    }
+    Ok(history)
 }
 
 /// Writes the identified model and its ledger line.
