@@ -18,8 +18,9 @@
 //! One test per draw, so that a draw whose outcome is wrong (a finding about the method,
 //! reported, never hidden by swapping the draw) is ignored alone, naming why. The subset costs
 //! far more than CI's budget of about 5 minutes (its draws took 53-610 s each, wall, two at a
-//! time on a loaded 2-core machine): CI runs the draws that took about a minute (a single
-//! effect and a clean robot); the others are `long` and run with `cargo xtask ci --long`
+//! time on a loaded 2-core machine; the triple 222 s of CPU): CI runs the two cheapest, a
+//! single effect (10 s of CPU) and a clean robot (19 s); the others are `long` and run with
+//! `cargo xtask ci --long`
 //! (`cargo test --release -p zmp-suites --test ci_subset -- --include-ignored --nocapture`
 //! runs all twelve and prints each one's line, wall and CPU time).
 
@@ -120,6 +121,7 @@ fn ci_pair_found() {
 }
 
 #[test]
+#[ignore = "long: 358 s wall, 222 s CPU (2026-12-07; in an earlier run under more load it reached the 600 s wall-clock limit and missed the delay); run by cargo xtask ci --long"]
 fn ci_triple_found() {
     run_and_check(|c| c.class == Class::Triple);
 }
