@@ -138,13 +138,13 @@ fn ci_outside_unexplained() {
 }
 
 #[test]
-#[ignore = "long: 604 s wall on the loaded 2-core machine (2026-12-07); run by cargo xtask ci --long; it reached the 600 s time limit"]
+#[ignore = "known failure: its loop reaches the 600 s wall-clock limit (603-604 s wall, 351 s CPU) and ends as the load allows: once both effects named, once ambiguous between coulomb_friction+backlash+sensor_lowpass and coulomb_friction+time_delay+backlash, where design_next panics on the low-pass rival (zmp_diagnose::design::parts: refit_frees with no records clamps to [inf, 0]), so the truth is not named alone; reported to the lead"]
 fn ci_delay_beside_play_named_alone_after_the_designed_experiment() {
     run_and_check(|c| c.scenario == "pair:time_delay,backlash");
 }
 
 #[test]
-#[ignore = "long: 493 s wall on the loaded 2-core machine (2026-12-07); run by cargo xtask ci --long"]
+#[ignore = "long: 173-493 s wall, 103 s CPU (2026-12-07; both effects named at once, the loop did not end ambiguous); run by cargo xtask ci --long"]
 fn ci_friction_beside_lowpass_named_alone_after_the_designed_experiment() {
     run_and_check(|c| c.scenario == "pair:coulomb_friction,sensor_lowpass");
 }
