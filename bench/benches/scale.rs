@@ -66,7 +66,7 @@ fn suite(threads: usize, shard: Option<&str>, out: &Path) -> Command {
         &threads.to_string(),
         "suite",
         "--range",
-        "ci",
+        "smoke",
         "--out",
     ])
     .arg(out);
@@ -171,7 +171,7 @@ fn one_round(s: &mut Samples, python: Option<&Path>) {
         c.arg(repo().join("xtask/scale/ray_driver.py"))
             .args(["--shards", "2", "--cpus-per-task", "1", "--json", "--xtask"])
             .arg(xtask_bin())
-            .args(["--", "suite", "--range", "ci", "--out"])
+            .args(["--", "suite", "--range", "smoke", "--out"])
             .arg(p("ray"));
         let mut out = None;
         s.ray_total.push(timed(|| out = Some(run(c, "ray driver"))));

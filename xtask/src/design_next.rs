@@ -107,7 +107,7 @@ fn cap_source(s: CapSource) -> &'static str {
     }
 }
 
-fn print_text(d: &Designed, out: Option<&Path>, seconds: f64) {
+pub(crate) fn print_text(d: &Designed, out: Option<&Path>, seconds: f64) {
     println!(
         "{} records, {:.0} s of recording, designed in {seconds:.1} s: {}",
         d.records.len(),
@@ -214,7 +214,12 @@ fn print_text(d: &Designed, out: Option<&Path>, seconds: f64) {
     }
 }
 
-fn json(d: &Designed, campaign: &Path, out: Option<&Path>, seconds: f64) -> serde_json::Value {
+pub(crate) fn json(
+    d: &Designed,
+    campaign: &Path,
+    out: Option<&Path>,
+    seconds: f64,
+) -> serde_json::Value {
     let l = &d.limits;
     let t = &d.timing;
     serde_json::json!({

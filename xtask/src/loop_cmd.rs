@@ -10,11 +10,16 @@ use anyhow::Result;
 use std::path::{Path, PathBuf};
 use zmp_campaign::ledger;
 use zmp_campaign::Campaign;
-use zmp_diagnose::iterate::Outcome;
+use zmp_diagnose::iterate::{LoopResult, Outcome};
 use zmp_diagnose::observe::Observation;
 use zmp_diagnose::DiagnoseOptions;
 use zmp_identify::IdentifyOptions;
 use zmp_report::diagnose::write_diagnosis_report;
+
+mod design;
+mod own_files;
+
+use own_files::{file_name, OwnFiles};
 
 /// What `cargo xtask loop` was asked.
 pub struct LoopArgs<'a> {
@@ -67,6 +72,11 @@ pub struct LoopSummary {
     pub time_limit_reached: bool,
     /// The seed's cascade controller on the last model against its uncertainty weights.
     pub robust: zmp_report::robust::RobustSummary,
+    /// When ambiguous: the experiment that decides, as `cargo xtask design-next --json`
+    /// prints it (the design file in the loop's folder, its records, the predicted separation
+    /// of every pair, the total recording time), with `predicted_sigma`, the least separated
+    /// pair's (noise standard deviations); `error` when none could be designed.
+    pub design_next: Option<serde_json::Value>,
 }
 
 fn options(
@@ -144,103 +154,6 @@ pub fn loop_cmd(a: &LoopArgs) -> Result<LoopSummary> {
     Ok(summary)
 }
 
-/// The files a loop run writes into its folder, listed in the folder's marker (its name
-/// before the file is written, its SHA-256 after), so that `loop --force` removes exactly the
-/// earlier run's own versions, and only while they are as it wrote them.
-struct OwnFiles {
-    marker: PathBuf,
-    lines: Vec<String>,
-}
-
-impl OwnFiles {
-    /// The marker's header line (what any marker of this folder kind starts with).
-    fn header(&self) -> String {
-        format!(
-            "This folder holds {} written by zmp-toolkit; `--force` may replace its files.",
-            zmp_files::Kind::LoopOutput.describe()
-        )
-    }
-
-    /// Removes what an earlier run listed: a model still as written (its hash matches) or
-    /// whose write was cut short (no hash yet, and still a model file), a report folder that
-    /// holds its marker, the waterfall if it is an SVG. Anything else stays.
-    fn remove_earlier(out: &Path) -> Result<Vec<PathBuf>> {
-        let marker = out.join(zmp_files::LOOP_MARKER);
-        let text = zmp_files::read_limited_text(&marker, 1 << 20, "a marker file")?;
-        let mut hashes = std::collections::HashMap::new();
-        let mut listed = Vec::new();
-        for line in text.lines() {
-            let mut w = line.splitn(3, ' ');
-            match (w.next(), w.next(), w.next()) {
-                (Some("file"), Some(kind), Some(name)) => {
-                    listed.push((kind.to_string(), name.to_string()))
-                }
-                (Some("sha256"), Some(hash), Some(name)) => {
-                    hashes.insert(name.to_string(), hash.to_string());
-                }
-                _ => {}
-            }
-        }
-        let mut removed = Vec::new();
-        for (kind, name) in listed {
-            if name.contains('/') || name.starts_with('.') {
-                continue;
-            }
-            let p = out.join(&name);
-            // A model only while it is as the run wrote it (its hash), or, cut short before its
-            // hash was listed, while it is a model; each only if of the kind listed.
-            let (kind, unchanged) = match kind.as_str() {
-                "model" => (
-                    zmp_files::Kind::Model,
-                    hashes.get(&name).is_none_or(|h| {
-                        zmp_files::read_limited(&p, zmp_files::limits::MODEL_BYTES, "a model")
-                            .is_ok_and(|b| zmp_files::sha256_hex(&b) == *h)
-                    }),
-                ),
-                "svg" => (zmp_files::Kind::Svg, true),
-                "report" => (zmp_files::Kind::Report, true),
-                _ => continue,
-            };
-            if unchanged && zmp_files::remove(&p, kind)? {
-                removed.push(p);
-            }
-        }
-        Ok(removed)
-    }
-
-    fn new(out: &Path) -> OwnFiles {
-        OwnFiles {
-            marker: out.join(zmp_files::LOOP_MARKER),
-            lines: Vec::new(),
-        }
-    }
-
-    /// Adds a line to the marker (rewritten atomically).
-    fn note(&mut self, line: String) -> Result<()> {
-        self.lines.push(line);
-        let text = format!("{}\n{}\n", self.header(), self.lines.join("\n"));
-        zmp_files::write_file(&self.marker, zmp_files::Kind::Marker, text.as_bytes(), true)?;
-        Ok(())
-    }
-
-    /// Writes a model version: listed first, then written, then its hash listed.
-    fn write_model(&mut self, path: &Path, text: &str) -> Result<()> {
-        let name = file_name(path);
-        self.note(format!("file model {name}"))?;
-        zmp_files::write_file(path, zmp_files::Kind::Model, text.as_bytes(), true)?;
-        self.note(format!(
-            "sha256 {} {name}",
-            zmp_files::sha256_hex(text.as_bytes())
-        ))
-    }
-}
-
-fn file_name(p: &Path) -> String {
-    p.file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default()
-}
-
 /// The loop on a campaign already read; `quiet` hides the narration (not the waterfall
 /// table unless `a.json`).
 pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummary> {
@@ -275,11 +188,129 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
     for w in &r.identification.warnings {
         say(&format!("   identify: {w}"));
     }
-    // The files: the identified model, each version, the ledger, the reports.
-    own.write_model(&identified, &r.identification.model.to_toml())?;
-    let cname = a.campaign.display().to_string();
-    ledger::append(
+    let mut versions = vec![write_identified(
+        &r,
+        a.campaign,
         &identified,
+        &mut own,
+        &say,
+    )?];
+    let reports = write_reports(camp, &r, out, &mut own, &say)?;
+    let (chain, final_model) = write_chain(&r, a.campaign, &identified, &mut own, &say)?;
+    versions.extend(chain);
+    let alternatives = write_alternatives(&r, a.campaign, &identified, &mut own, &say)?;
+    let still_failing = still_failing(&r)?;
+    let history = write_history(out, &final_model, &mut own, quiet)?;
+    let outcome = r.outcome;
+    say(&format!(
+        "outcome: {}{}",
+        serde_json::to_value(outcome)?.as_str().unwrap_or_default(),
+        if r.found.is_empty() {
+            String::new()
+        } else {
+            format!(" after adding {}", r.found.join(", "))
+        }
+    ));
+    for c in &still_failing {
+        say(&format!("   still failing: {c}"));
+    }
+    let robust = crate::robust::seed_controller_check(&r.final_model)?;
+    say(&format!(
+        "robust stability of the last model with the seed's controller ({}): {}",
+        robust.controller,
+        robust.summary()
+    ));
+    let design_next = if outcome == Outcome::Ambiguous {
+        say(&format!(
+            "   the records do not decide between {}",
+            r.set
+                .iter()
+                .map(|s| s.join("+"))
+                .collect::<Vec<_>>()
+                .join(" / ")
+        ));
+        let models: Vec<PathBuf> = std::iter::once(final_model.clone())
+            .chain(alternatives.iter().map(|v| v.model.clone()))
+            .collect();
+        let v = design::design_for_set(camp, a, &r, &models, out, &mut own, quiet)?;
+        if let Some(last) = reports.last() {
+            design::add_to_report(last, &design::report_line(&v))?;
+        }
+        Some(v)
+    } else {
+        None
+    };
+    if r.time_limit_reached {
+        say(&format!(
+            "   the time limit ({} s, --time-limit) passed before the loop ended: the last \
+             model is the best it reached in time",
+            a.time_limit.map_or(0, |d| d.as_secs())
+        ));
+    }
+    Ok(LoopSummary {
+        campaign: a.campaign.to_path_buf(),
+        found: r.found.clone(),
+        outcome,
+        set: r.set.clone(),
+        alternatives,
+        verdict: r
+            .diagnoses
+            .first()
+            .map_or(String::new(), |d| d.verdict.to_string()),
+        versions,
+        noise_floor: r.noise_floor,
+        reports,
+        history,
+        final_model,
+        still_failing,
+        time_limit_reached: r.time_limit_reached,
+        robust: zmp_report::robust::summary(&robust),
+        design_next,
+    })
+}
+
+/// Where the last model still fails (one line per significant cell, at most eight).
+fn still_failing(r: &LoopResult) -> Result<Vec<String>> {
+    let obs: Vec<&Observation> = r.observations.iter().collect();
+    let final_preds = zmp_diagnose::measure::predict(&r.final_model, &obs)?;
+    Ok(zmp_diagnose::cells::cells(&obs, &final_preds)
+        .iter()
+        .filter(|c| c.significant)
+        .take(8)
+        .map(|c| c.line())
+        .collect())
+}
+
+/// Writes the waterfall of the ledger up to `final_model` (`history.svg`; its table printed
+/// unless `quiet`).
+fn write_history(
+    out: &Path,
+    final_model: &Path,
+    own: &mut OwnFiles,
+    quiet: bool,
+) -> Result<PathBuf> {
+    let history = out.join("history.svg");
+    own.note("file svg history.svg".into())?;
+    if quiet {
+        history_plot(final_model, Some(&history), true)?;
+    } else {
+        history_cmd(final_model, Some(&history), true, false)?;
+    }
+    Ok(history)
+}
+
+/// Writes the identified model and its ledger line.
+fn write_identified(
+    r: &LoopResult,
+    campaign: &Path,
+    identified: &Path,
+    own: &mut OwnFiles,
+    say: &dyn Fn(&str),
+) -> Result<Version> {
+    own.write_model(identified, &r.identification.model.to_toml())?;
+    let cname = campaign.display().to_string();
+    ledger::append(
+        identified,
         None,
         "identified",
         &cname,
@@ -293,12 +324,22 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         r.identified_error,
         r.identified_error / r.noise_floor
     ));
-    let mut versions = vec![Version {
-        model: identified.clone(),
+    Ok(Version {
+        model: identified.to_path_buf(),
         change: "identified".into(),
         error: r.identified_error,
         noise_floor: r.noise_floor,
-    }];
+    })
+}
+
+/// Writes each diagnosis's report (`diagnosis/`, `diagnosis-2/`, ...) and says its verdict.
+fn write_reports(
+    camp: &Campaign,
+    r: &LoopResult,
+    out: &Path,
+    own: &mut OwnFiles,
+    say: &dyn Fn(&str),
+) -> Result<Vec<PathBuf>> {
     let mut reports = Vec::new();
     for (k, d) in r.diagnoses.iter().enumerate() {
         let dir = if k == 0 {
@@ -323,7 +364,21 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
             say(&format!("   ? {}: {words}", a.structure));
         }
     }
-    let mut current_path = identified.clone();
+    Ok(reports)
+}
+
+/// Writes each version of the best structure's chain after the identified model, each with
+/// its ledger line; returns them and the last model's file.
+fn write_chain(
+    r: &LoopResult,
+    campaign: &Path,
+    identified: &Path,
+    own: &mut OwnFiles,
+    say: &dyn Fn(&str),
+) -> Result<(Vec<Version>, PathBuf)> {
+    let cname = campaign.display().to_string();
+    let mut versions = Vec::new();
+    let mut current_path = identified.to_path_buf();
     for (added, aug) in &r.versions {
         // A version without an added effect is the structure refitted (`refit`) or its
         // modes (`trunk-in-servo`) or its play (`play-in-servo`) moved inside the servo's loop;
@@ -360,13 +415,25 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
         });
         current_path = next;
     }
+    Ok((versions, current_path))
+}
+
+/// Writes the ambiguous set's other structures, each a version of the identified model.
+fn write_alternatives(
+    r: &LoopResult,
+    campaign: &Path,
+    identified: &Path,
+    own: &mut OwnFiles,
+    say: &dyn Fn(&str),
+) -> Result<Vec<Version>> {
+    let cname = campaign.display().to_string();
     let mut alternatives = Vec::new();
     for (added, aug) in &r.alternatives {
-        let next = augmented_path(&identified, &added.join("+"));
+        let next = augmented_path(identified, &added.join("+"));
         own.write_model(&next, &aug.spec.to_toml())?;
         ledger::append(
             &next,
-            Some(&identified),
+            Some(identified),
             &aug.change,
             &cname,
             aug.error_after,
@@ -386,85 +453,7 @@ pub fn run_loop(camp: &Campaign, a: &LoopArgs, quiet: bool) -> Result<LoopSummar
             noise_floor: aug.noise_floor,
         });
     }
-    let obs: Vec<&Observation> = r.observations.iter().collect();
-    let final_preds = zmp_diagnose::measure::predict(&r.final_model, &obs)?;
-    let still_failing: Vec<String> = zmp_diagnose::cells::cells(&obs, &final_preds)
-        .iter()
-        .filter(|c| c.significant)
-        .take(8)
-        .map(|c| c.line())
-        .collect();
-    let history = out.join("history.svg");
-    own.note("file svg history.svg".into())?;
-    if quiet {
-        history_plot(&current_path, Some(&history), true)?;
-    } else {
-        history_cmd(&current_path, Some(&history), true, false)?;
-    }
-    let outcome = r.outcome;
-    say(&format!(
-        "outcome: {}{}",
-        serde_json::to_value(outcome)?.as_str().unwrap_or_default(),
-        if r.found.is_empty() {
-            String::new()
-        } else {
-            format!(" after adding {}", r.found.join(", "))
-        }
-    ));
-    for c in &still_failing {
-        say(&format!("   still failing: {c}"));
-    }
-    let robust = crate::robust::seed_controller_check(&r.final_model)?;
-    say(&format!(
-        "robust stability of the last model with the seed's controller ({}): {}",
-        robust.controller,
-        robust.summary()
-    ));
-    if outcome == Outcome::Ambiguous {
-        // HOOK(design-next): the experiment that decides, `cargo xtask design-next` (issue 55,
-        // item 5), takes the set's models; once it is on main the loop calls it here.
-        let models: Vec<String> = std::iter::once(&current_path)
-            .chain(alternatives.iter().map(|v| &v.model))
-            .map(|m| format!("--model {}", m.display()))
-            .collect();
-        say(&format!(
-            "   the records do not decide between {}; the records that would: cargo xtask \
-             design-next {} {}",
-            r.set
-                .iter()
-                .map(|s| s.join("+"))
-                .collect::<Vec<_>>()
-                .join(" / "),
-            a.campaign.display(),
-            models.join(" ")
-        ));
-    }
-    if r.time_limit_reached {
-        say(&format!(
-            "   the time limit ({} s, --time-limit) passed before the loop ended: the last \
-             model is the best it reached in time",
-            a.time_limit.map_or(0, |d| d.as_secs())
-        ));
-    }
-    Ok(LoopSummary {
-        campaign: a.campaign.to_path_buf(),
-        found: r.found.clone(),
-        outcome,
-        set: r.set.clone(),
-        alternatives,
-        verdict: r
-            .diagnoses
-            .first()
-            .map_or(String::new(), |d| d.verdict.to_string()),
-        versions,
-        noise_floor: r.noise_floor,
-        reports,
-        history,
-        final_model: current_path,
-        still_failing,
-        time_limit_reached: r.time_limit_reached,
-        robust: zmp_report::robust::summary(&robust),
-    })
+    Ok(alternatives)
 }
 
 /// What the demo's loop did.

@@ -12,8 +12,10 @@ use zmp_suites::sharded::{self, Range};
 /// `cargo xtask suite`.
 #[derive(clap::Args)]
 pub struct SuiteArgs {
-    /// Which draws: `development` (seeds 1-60, where the diagnosis is tuned), `held-out` (60
-    /// draws from the next range never run; run once) or `ci` (a few quick development draws).
+    /// Which draws: `development` (seeds 1-300, where the diagnosis is tuned), `held-out` (300
+    /// draws from the next range never run; run once), `ci` (12 development draws derived
+    /// from the composition: the first of each kind) or `smoke` (5 quick development draws,
+    /// for testing the shard machinery).
     #[arg(long)]
     pub range: Range,
     /// First seed of a development or held-out range (held-out default: the next unspent
@@ -89,7 +91,7 @@ fn rerun_hint(c: &Collected, dir: &Path) -> String {
             "cargo xtask suite --range {} --out {d}{}",
             c.job.params["range"].as_str().unwrap_or("?"),
             match c.job.params["range"].as_str() {
-                Some("ci") | None => String::new(),
+                Some("ci" | "smoke") | None => String::new(),
                 Some(_) => format!(" --first-seed {}", c.job.params["first_seed"]),
             }
         ),

@@ -1,6 +1,7 @@
-//! The shard contract end to end on the CI subset of the out-of-sample suite (5 draws of the
-//! development range, each a few seconds on one thread): run in one process, as 4 shards
-//! through the Slurm array script run by hand, and through the Ray driver on a local cluster
+//! The shard contract end to end on the smoke range of the out-of-sample suite (5 quick draws
+//! of the development range, `zmp_suites::sharded::SMOKE_SEEDS`; the CI subset, with its
+//! ambiguous pairs and their designed experiments, is asserted draw by draw in
+//! `validation/suites/tests/ci_subset.rs`): run in one process, as 4 shards through the Slurm array script run by hand, and through the Ray driver on a local cluster
 //! with one worker killed mid-run; every merge must give the one-process run's files byte for
 //! byte (the draws are deterministic: one thread each, far from their time limit).
 
@@ -35,7 +36,7 @@ fn unit_files(dir: &Path) -> Vec<String> {
     v
 }
 
-/// The CI range's unit files (`zmp_suites::sharded::CI_SEEDS`), in file-name order.
+/// The smoke range's unit files (`zmp_suites::sharded::SMOKE_SEEDS`), in file-name order.
 const CI_UNITS: [&str; 5] = [
     "draw-1.json",
     "draw-209.json",
@@ -52,10 +53,10 @@ fn one_process() -> &'static BTreeMap<&'static str, Vec<u8>> {
         let out = d.path().join("one");
         let o = out.to_str().unwrap();
         ok(
-            xtask(&["suite", "--range", "ci", "--out", o], d.path()),
+            xtask(&["suite", "--range", "smoke", "--out", o], d.path()),
             "suite",
         );
-        let mut expected: Vec<String> = zmp_suites::sharded::CI_SEEDS
+        let mut expected: Vec<String> = zmp_suites::sharded::SMOKE_SEEDS
             .iter()
             .map(|s| format!("draw-{s}.json"))
             .collect();
@@ -105,7 +106,7 @@ fn four_shards_by_the_slurm_array_script_merge_to_the_one_process_files() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("job");
     let o = out.to_str().unwrap();
-    let cmd = ["suite", "--range", "ci", "--out", o];
+    let cmd = ["suite", "--range", "smoke", "--out", o];
     // An array submitted as --array=5-8: task ids 5..8, shards 1/4..4/4, started at once.
     let tasks: Vec<_> = (5..=8)
         .map(|task| {
@@ -144,7 +145,7 @@ fn four_shards_by_the_slurm_array_script_merge_to_the_one_process_files() {
     assert!(err.contains("--unit ID"), "{err}");
     ok(
         xtask(
-            &["suite", "--range", "ci", "--out", o, "--unit", "draw-9"],
+            &["suite", "--range", "smoke", "--out", o, "--unit", "draw-9"],
             d.path(),
         ),
         "unit",
@@ -218,7 +219,7 @@ fn ray_local_cluster_with_a_killed_worker_merges_to_the_one_process_files() {
         .arg(repo().join("xtask/scale/ray_driver.py"))
         .args(["--shards", "4", "--cpus-per-task", "1", "--xtask"])
         .arg(env!("CARGO_BIN_EXE_xtask"))
-        .args(["--", "suite", "--range", "ci", "--out"])
+        .args(["--", "suite", "--range", "smoke", "--out"])
         .arg(&out)
         .stdout(std::fs::File::create(d.path().join("driver.out")).unwrap())
         .stderr(std::fs::File::create(d.path().join("driver.err")).unwrap())
@@ -402,7 +403,7 @@ fn a_real_single_node_slurm_runs_the_array_and_the_dependent_merge() {
         .command("sbatch")
         .args(["--test-only", "--array=1-4"])
         .arg(&script)
-        .args(["suite", "--range", "ci", "--out", o])
+        .args(["suite", "--range", "smoke", "--out", o])
         .output()
         .unwrap();
     let said = String::from_utf8_lossy(&t.stderr);
@@ -414,7 +415,7 @@ fn a_real_single_node_slurm_runs_the_array_and_the_dependent_merge() {
     let s = slurm
         .command("bash")
         .arg(repo().join("xtask/scale/slurm/submit.sh"))
-        .args(["4", "suite", "--range", "ci", "--out", o, "--"])
+        .args(["4", "suite", "--range", "smoke", "--out", o, "--"])
         .args(["--cpus-per-task=1", &log])
         .env("ZMP_XTASK", env!("CARGO_BIN_EXE_xtask"))
         .env("ZMP_ROOT", repo())

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 pub const RECORD: &str = "validation/suites/held-out-ranges.csv";
 
 /// The columns of the record, in order.
-pub const COLUMNS: [&str; 15] = [
+pub const COLUMNS: [&str; 16] = [
     "range",
     "date",
     "code",
@@ -23,6 +23,7 @@ pub const COLUMNS: [&str; 15] = [
     "false",
     "ambiguous",
     "words",
+    "after_design",
     "minutes",
     "note",
 ];
@@ -55,6 +56,9 @@ pub struct RangeRow {
     /// Outside draws whose residual was described: described right (blank before the
     /// diagnosis described it).
     pub words: Count,
+    /// Draws that ended `ambiguous`: the truth named alone after one designed experiment
+    /// (blank before the suite ran the designed experiment).
+    pub after_design: Count,
     /// Wall time of the run, minutes.
     pub minutes: Option<f64>,
     pub note: String,
@@ -127,16 +131,17 @@ pub fn parse(text: &str) -> Result<Vec<RangeRow>, String> {
             false_effects: c(10)?,
             ambiguous: c(11)?,
             words: c(12)?,
-            minutes: if f[13].is_empty() {
+            after_design: c(13)?,
+            minutes: if f[14].is_empty() {
                 None
             } else {
                 Some(
-                    f[13]
+                    f[14]
                         .parse()
-                        .map_err(|_| format!("{RECORD}:{line}: column `minutes`: {:?}", f[13]))?,
+                        .map_err(|_| format!("{RECORD}:{line}: column `minutes`: {:?}", f[14]))?,
                 )
             },
-            note: f[14].to_string(),
+            note: f[15].to_string(),
         });
     }
     Ok(rows)
@@ -158,6 +163,7 @@ pub fn line(row: &RangeRow) -> String {
         fmt_count(row.false_effects),
         fmt_count(row.ambiguous),
         fmt_count(row.words),
+        fmt_count(row.after_design),
         row.minutes.map(|m| format!("{m:.1}")).unwrap_or_default(),
         row.note.replace(',', ";"),
     ]
@@ -197,12 +203,12 @@ pub fn render(rows: &[RangeRow]) -> String {
     let mut t = String::from(
         "| range | date | code | singles named | carried | pairs found | triples | clean | \
          outside unexplained | closed within 2x | false effect | ambiguous | words right | \
-         minutes | note |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+         alone after design | minutes | note |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         t.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             r.range,
             r.date,
             if r.code.is_empty() {
@@ -220,6 +226,7 @@ pub fn render(rows: &[RangeRow]) -> String {
             fmt_count(r.false_effects),
             fmt_count(r.ambiguous),
             rate(r.words),
+            rate(r.after_design),
             r.minutes.map(|m| format!("{m:.1}")).unwrap_or_default(),
             r.note,
         ));
@@ -272,12 +279,13 @@ mod tests {
     #[test]
     fn a_line_reads_back_and_bad_counts_name_line_and_column() {
         let header = COLUMNS.join(",");
-        let text = format!("# c\n{header}\n1250000,2026-11-29,8ea5e78,21/21,6/6,8/12,2/3,10/10,5/8,52/52,5/52,,,23.0,\n");
+        let text = format!("# c\n{header}\n1250000,2026-11-29,8ea5e78,21/21,6/6,8/12,2/3,10/10,5/8,52/52,5/52,,,3/4,23.0,\n");
         let rows = parse(&text).unwrap();
         assert_eq!(rows.len(), 1);
         assert_eq!(rows[0].pairs, Some((8, 12)));
+        assert_eq!(rows[0].after_design, Some((3, 4)));
         assert_eq!(line(&rows[0]), text.lines().nth(2).unwrap());
-        let bad = format!("{header}\n1,d,c,9/8,,,,,,,,,,,\n");
+        let bad = format!("{header}\n1,d,c,9/8,,,,,,,,,,,,\n");
         let e = parse(&bad).unwrap_err();
         assert!(e.contains(":2:") && e.contains("`singles`"), "{e}");
     }

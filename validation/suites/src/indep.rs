@@ -31,9 +31,11 @@ use zmp_diagnose::DiagnoseOptions;
 use zmp_identify::IdentifyOptions;
 use zmp_indep_sim::{draw_with, write_campaign, CouplingForm, Design, DrawOptions, Scenario};
 
+pub mod designed;
 mod score;
 mod verdict;
 
+pub use designed::AfterDesign;
 pub use score::{markdown, scores, Scores};
 pub use verdict::{expected_words, LoopVerdict, ResidualFeature, MAX_SET};
 
@@ -121,6 +123,10 @@ pub struct Outcome {
     pub error: Option<String>,
     /// Whether the draw's loop reached [`DRAW_TIME_LIMIT`] (it is scored on what it reached).
     pub time_limit_reached: bool,
+    /// When the loop ended `ambiguous`: what it concluded after one designed experiment
+    /// ([`designed::after_design`]).
+    #[serde(default)]
+    pub after_design: Option<AfterDesign>,
 }
 
 /// Wall-clock limit of one draw's loop (`DiagnoseOptions::time_limit`), fixed before the
@@ -217,6 +223,38 @@ impl Outcome {
         let strongest = self.residual.as_ref()?.first().copied();
         let effect = zmp_indep_sim::Effect::from_name(effect)?;
         Some(strongest.is_some_and(|w| expected_words(effect).contains(&w)))
+    }
+
+    /// Whether `found` names every effect the diagnosis must find and no false one (the
+    /// truth named alone, not inside a set).
+    fn names_alone(&self, found: &[String]) -> bool {
+        let must = self.must_find();
+        must.iter().all(|m| found.iter().any(|f| f == m))
+            && found
+                .iter()
+                .all(|f| f == "acceleration_saturation" || self.hidden.iter().any(|h| h == f))
+    }
+
+    /// For a draw whose loop ended `ambiguous`: whether the loop, run again with the designed
+    /// experiment's records appended, named the truth alone (every effect to find, no false
+    /// one, not ambiguous). `None` for a draw that did not end ambiguous.
+    pub fn named_alone_after_design(&self) -> Option<bool> {
+        if self.error.is_some() || !self.ambiguous() {
+            return None;
+        }
+        let a = self.after_design.as_ref();
+        Some(a.is_some_and(|a| {
+            a.error.is_none() && a.ambiguous_set.is_none() && self.names_alone(&a.found)
+        }))
+    }
+
+    /// The truth named alone at the end: by the loop, or, when it ended `ambiguous`, by the
+    /// loop after the designed experiment (the target of a pair built to be ambiguous).
+    pub fn named_alone(&self) -> bool {
+        match self.named_alone_after_design() {
+            Some(ok) => ok,
+            None => self.error.is_none() && self.in_catalogue && self.names_alone(&self.found),
+        }
     }
 
     /// Within 2x the noise floor and explained after the loop.
@@ -375,7 +413,8 @@ pub fn suite(first_seed: u64, c: &Composition) -> Vec<Case> {
 }
 
 /// Draws the case's robot, writes its campaign into `dir` with the independent simulator,
-/// reads it back and runs the loop on one thread.
+/// reads it back and runs the loop on one thread; when the loop ends `ambiguous`, runs the
+/// experiment it designs on the same robot and the loop again ([`designed::after_design`]).
 pub fn run_case(case: &Case, dir: &Path) -> anyhow::Result<Outcome> {
     let t = std::time::Instant::now();
     let scenario: Scenario = case
@@ -391,8 +430,9 @@ pub fn run_case(case: &Case, dir: &Path) -> anyhow::Result<Outcome> {
             coupling_form: Some(CouplingForm::Pendulum),
         },
     );
-    // `ZMP_BLIND_KEEP=DIR` keeps each draw's campaign in DIR (for looking at one draw with
-    // `cargo xtask loop DIR/campaign-SEED`); otherwise it goes with the temporary folder.
+    // `ZMP_BLIND_KEEP=DIR` keeps each draw's campaign (and its designed records) in DIR (for
+    // looking at one draw with `cargo xtask loop DIR/campaign-SEED`); otherwise they go with
+    // the temporary folder.
     let keep = std::env::var_os("ZMP_BLIND_KEEP").map(std::path::PathBuf::from);
     let camp_dir = keep
         .as_deref()
@@ -412,6 +452,24 @@ pub fn run_case(case: &Case, dir: &Path) -> anyhow::Result<Outcome> {
         ..IdentifyOptions::default()
     };
     let r = run_loop(&camp, None, &iopts, &opts, &|_| {});
+    let after_design = match &r {
+        Ok(r) if r.ambiguous_set().is_some() => {
+            let next_dir = camp_dir.with_file_name(format!("designed-{}", case.seed));
+            std::fs::create_dir_all(&next_dir)?;
+            let drawn = designed::DrawnCampaign {
+                robot: &robot,
+                design: &design,
+                campaign: &camp,
+                dir: &camp_dir,
+            };
+            let a = designed::after_design(&drawn, r, &next_dir, &opts, &iopts);
+            if keep.is_none() {
+                let _ = std::fs::remove_dir_all(&next_dir);
+            }
+            Some(a)
+        }
+        _ => None,
+    };
     if keep.is_none() {
         let _ = std::fs::remove_dir_all(&camp_dir);
     }
@@ -442,6 +500,7 @@ pub fn run_case(case: &Case, dir: &Path) -> anyhow::Result<Outcome> {
             seconds,
             error: None,
             time_limit_reached: r.time_limit_reached,
+            after_design,
         },
         Err(e) => Outcome {
             case: case.clone(),
@@ -457,6 +516,7 @@ pub fn run_case(case: &Case, dir: &Path) -> anyhow::Result<Outcome> {
             seconds,
             error: Some(e.to_string()),
             time_limit_reached: false,
+            after_design: None,
         },
     })
 }
@@ -476,7 +536,7 @@ pub fn line(o: &Outcome) -> String {
         (None, None, false) => "unexplained".into(),
     };
     format!(
-        "{:>7} {:<58} -> found [{}] {} ({:.1}x -> {:.2}x floor) {} [{:.0} s{}]",
+        "{:>7} {:<58} -> found [{}] {} ({:.1}x -> {:.2}x floor) {}{} [{:.0} s{}]",
         o.case.seed,
         o.case.scenario,
         o.found.join(", "),
@@ -484,11 +544,44 @@ pub fn line(o: &Outcome) -> String {
         o.identified_ratio,
         o.final_ratio,
         if o.right() { "ok" } else { "WRONG" },
+        after_design_words(o),
         o.seconds,
         if o.time_limit_reached {
             ", time limit"
         } else {
             ""
+        }
+    )
+}
+
+/// What the loop concluded after the designed experiment, for a draw's line (empty when the
+/// loop did not end ambiguous; no wall time, so that a sharded report is the same bytes).
+pub fn after_design_words(o: &Outcome) -> String {
+    let (Some(a), Some(alone)) = (&o.after_design, o.named_alone_after_design()) else {
+        return String::new();
+    };
+    let end = match (&a.error, &a.ambiguous_set, a.explained) {
+        (Some(e), _, _) => format!("error: {e}"),
+        (None, Some(set), _) => format!(
+            "ambiguous {{{}}}",
+            set.iter()
+                .map(|s| format!("[{}]", s.join(", ")))
+                .collect::<Vec<_>>()
+                .join(" ")
+        ),
+        (None, None, true) => "explained".into(),
+        (None, None, false) => "unexplained".into(),
+    };
+    format!(
+        "; after {} designed records ({:.0} s, predicted {:.1} sigma): found [{}] {end} {}",
+        a.records,
+        a.recording_s,
+        a.predicted_sigma,
+        a.found.join(", "),
+        if alone {
+            "named alone"
+        } else {
+            "NOT named alone"
         }
     )
 }

@@ -5,7 +5,8 @@
 //! and the JSON.
 
 use crate::indep::{
-    markdown, run_case, scores, suite, Case, Composition, Outcome, DRAW_TIME_LIMIT,
+    after_design_words, markdown, run_case, scores, suite, Case, Class, Composition, Outcome,
+    DRAW_TIME_LIMIT,
 };
 use anyhow::{bail, Context, Result};
 use serde_json::{json, Value};
@@ -20,8 +21,12 @@ pub enum Range {
     Development,
     /// A held-out range: 60 draws from a first seed never run before; run once.
     HeldOut,
-    /// The CI subset: a few quick draws of the development range.
+    /// The CI subset: [`CI_DRAWS`] draws of the development range derived from its
+    /// composition ([`ci_subset`]).
     Ci,
+    /// A few quick development draws ([`SMOKE_SEEDS`]): what the tests of the shard
+    /// machinery run (several times each), not a measure of the diagnosis.
+    Smoke,
 }
 
 impl FromStr for Range {
@@ -31,7 +36,8 @@ impl FromStr for Range {
             "development" => Ok(Range::Development),
             "held-out" => Ok(Range::HeldOut),
             "ci" => Ok(Range::Ci),
-            _ => bail!("--range {s:?}: expected development, held-out or ci"),
+            "smoke" => Ok(Range::Smoke),
+            _ => bail!("--range {s:?}: expected development, held-out, ci or smoke"),
         }
     }
 }
@@ -42,6 +48,7 @@ impl fmt::Display for Range {
             Range::Development => "development",
             Range::HeldOut => "held-out",
             Range::Ci => "ci",
+            Range::Smoke => "smoke",
         })
     }
 }
@@ -55,11 +62,60 @@ pub fn standard_range(first_seed: u64) -> Vec<Case> {
     suite(first_seed, &Composition::RANGE)
 }
 
-/// Seeds of the CI subset, from the development range: draws that finish in seconds on one
-/// thread (3-10 s here: a delay the diagnosis must name, saturation and pendulum coupling the
-/// seed's structure carries, two clean robots). Replace with the diagnosis's 12-draw CI subset
-/// when it exists.
-pub const CI_SEEDS: [u64; 5] = [1, 4, 9, 209, 210];
+/// How many draws the CI subset holds (issue 55: a fixed 12-draw subset of the development
+/// range, one of each kind and two ambiguous pairs with their designed experiment).
+pub const CI_DRAWS: usize = 12;
+
+/// The kind a draw stands for in the CI subset: the effect of a single, the scenario of a
+/// pair built to be ambiguous (each of them is a kind of its own), else its class.
+fn ci_kind(c: &Case) -> String {
+    match &c.class {
+        Class::Single(e) => format!("single:{e}"),
+        Class::AmbiguousPair => c.scenario.clone(),
+        Class::Pair => "pair".into(),
+        Class::Triple => "triple".into(),
+        Class::Clean => "clean".into(),
+        Class::Outside(_) => "outside".into(),
+    }
+}
+
+/// The CI subset of the range of `c` from `first_seed`, derived from the composition (never
+/// picked by outcome, so it follows the ranges when they change): the first draw of each kind
+/// that is not a single (a pair, each pair built to be ambiguous, a triple, a clean robot, an
+/// effect outside the catalogue), then the first draw of each single effect in suite order
+/// until [`CI_DRAWS`]; in seed order.
+pub fn ci_subset(first_seed: u64, c: &Composition) -> Vec<Case> {
+    let cases = suite(first_seed, c);
+    let mut seen = std::collections::BTreeSet::new();
+    let firsts: Vec<&Case> = cases.iter().filter(|c| seen.insert(ci_kind(c))).collect();
+    let (singles, others): (Vec<&Case>, Vec<&Case>) = firsts
+        .into_iter()
+        .partition(|c| matches!(c.class, Class::Single(_)));
+    let room = CI_DRAWS.saturating_sub(others.len());
+    let mut out: Vec<Case> = others
+        .into_iter()
+        .chain(singles.into_iter().take(room))
+        .cloned()
+        .collect();
+    out.sort_by_key(|c| c.seed);
+    out
+}
+
+/// The draws of the smoke range: development draws that finish in seconds on one thread (a
+/// delay the diagnosis must name, saturation and pendulum coupling the seed's structure
+/// carries, two clean robots), chosen for their speed when the shard tests were written
+/// (`xtask/tests/scale.rs` runs them several times and kills a shard between the two clean
+/// robots). They test the shard machinery, not the diagnosis: the CI subset
+/// ([`ci_subset`]) does that.
+pub const SMOKE_SEEDS: [u64; 5] = [1, 4, 9, 209, 210];
+
+/// The seeds of the CI subset of the development range ([`ci_subset`]).
+pub fn ci_seeds() -> Vec<u64> {
+    ci_subset(DEVELOPMENT_FIRST_SEED, &Composition::RANGE)
+        .iter()
+        .map(|c| c.seed)
+        .collect()
+}
 
 /// Where each held-out range starts: ranges are this many seeds apart.
 pub const HELD_OUT_STRIDE: u64 = 10_000;
@@ -84,10 +140,13 @@ pub fn next_held_out() -> Result<u64> {
 /// The draws of `range` (the held-out range from `first_seed` or the next unspent one).
 pub fn range_cases(range: Range, first_seed: Option<u64>) -> Result<Vec<Case>> {
     Ok(match (range, first_seed) {
-        (Range::Ci, Some(_)) => bail!("--first-seed: the ci range is a fixed set of draws"),
-        (Range::Ci, None) => standard_range(DEVELOPMENT_FIRST_SEED)
+        (Range::Ci | Range::Smoke, Some(_)) => {
+            bail!("--first-seed: the {range} range is a fixed set of draws")
+        }
+        (Range::Ci, None) => ci_subset(DEVELOPMENT_FIRST_SEED, &Composition::RANGE),
+        (Range::Smoke, None) => standard_range(DEVELOPMENT_FIRST_SEED)
             .into_iter()
-            .filter(|c| CI_SEEDS.contains(&c.seed))
+            .filter(|c| SMOKE_SEEDS.contains(&c.seed))
             .collect(),
         (Range::Development, s) => standard_range(s.unwrap_or(DEVELOPMENT_FIRST_SEED)),
         (Range::HeldOut, Some(s)) => {
@@ -137,7 +196,7 @@ pub fn job_range(job: &Job) -> Result<(Range, Option<u64>)> {
         .context("job.json: field `params.range` is missing")?
         .parse()?;
     let first = match range {
-        Range::Ci => None,
+        Range::Ci | Range::Smoke => None,
         _ => job.params["first_seed"].as_u64(),
     };
     Ok((range, first))
@@ -166,8 +225,13 @@ fn title(range: Range, cases: &[Case]) -> String {
     match range {
         Range::Development => format!("Development seeds {a}-{b} ({} draws)", cases.len()),
         Range::HeldOut => format!("Held-out seeds {a}-{b} ({} draws)", cases.len()),
-        Range::Ci => format!(
-            "CI subset of the development seeds ({} draws: {})",
+        Range::Ci | Range::Smoke => format!(
+            "{} of the development seeds ({} draws: {})",
+            if range == Range::Ci {
+                "CI subset"
+            } else {
+                "Smoke subset"
+            },
             cases.len(),
             cases
                 .iter()
@@ -181,7 +245,7 @@ fn title(range: Range, cases: &[Case]) -> String {
 /// One draw for the report (no wall time: the report is the same however the draws ran).
 pub fn draw_line(o: &Outcome) -> String {
     format!(
-        "{:>7} {:<58} -> found [{}] {} ({:.1}x -> {:.2}x floor) {}{}  [{}]",
+        "{:>7} {:<58} -> found [{}] {} ({:.1}x -> {:.2}x floor) {}{}{}  [{}]",
         o.case.seed,
         o.case.scenario,
         o.found.join(", "),
@@ -198,6 +262,7 @@ pub fn draw_line(o: &Outcome) -> String {
         } else {
             ""
         },
+        after_design_words(o),
         o.truth
     )
 }
@@ -220,6 +285,17 @@ fn draw_json(o: &Outcome) -> Value {
         "right": o.right(),
         "closed": o.closed(),
         "time_limit_reached": o.time_limit_reached,
+        "after_design": o.after_design.as_ref().map(|a| json!({
+            "records": a.records,
+            "recording_s": a.recording_s,
+            "predicted_sigma": a.predicted_sigma,
+            "found": a.found,
+            "explained": a.explained,
+            "ambiguous_set": a.ambiguous_set,
+            "error": a.error,
+            "time_limit_reached": a.time_limit_reached,
+        })),
+        "named_alone_after_design": o.named_alone_after_design(),
     })
 }
 
@@ -258,6 +334,8 @@ pub fn render(c: &Collected) -> Result<Merged> {
             "closed": pair(s.closed),
             "worst_closed_ratio": s.worst_closed_ratio,
             "false_alarms": pair(s.false_alarms),
+            "ambiguous": pair(s.ambiguous),
+            "after_design": pair(s.after_design),
         },
         "complete": c.complete(),
     });
@@ -312,15 +390,55 @@ fn range_cases_for_merge(range: Range, first: Option<u64>, job: &Job) -> Result<
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::indep::Class;
+
+    #[test]
+    fn the_ci_subset_is_the_first_draw_of_each_kind_of_the_composition() {
+        // Counted by hand from the suite's order: 11 singles x 8 rounds (seeds 1-88), 60 pairs
+        // (89-148), 24 pairs built ambiguous (149-172), 36 triples (173-208), 40 clean robots
+        // (209-248), the outside effects from 249; six kinds besides the singles leave room
+        // for the first six singles.
+        let ci = ci_subset(DEVELOPMENT_FIRST_SEED, &Composition::RANGE);
+        let seeds: Vec<u64> = ci.iter().map(|c| c.seed).collect();
+        assert_eq!(seeds, [1, 2, 3, 4, 5, 6, 89, 149, 150, 173, 209, 249]);
+        assert_eq!(ci_seeds(), seeds);
+        assert_eq!(ci[7].scenario, "pair:time_delay,backlash");
+        assert_eq!(ci[8].scenario, "pair:coulomb_friction,sensor_lowpass");
+        assert_eq!(ci[10].class, Class::Clean);
+        assert!(matches!(ci[11].class, Class::Outside(_)));
+        let smoke = range_cases(Range::Smoke, None).unwrap();
+        assert_eq!(
+            smoke.iter().map(|c| c.seed).collect::<Vec<_>>(),
+            SMOKE_SEEDS
+        );
+        assert_eq!(smoke[0].scenario, "single:time_delay");
+        assert_eq!(smoke[3].class, Class::Clean);
+        assert_eq!(smoke[4].class, Class::Clean);
+        // It follows the composition: one round of singles (1-11), 2 pairs (12-13), 2 built
+        // ambiguous (14-15), a triple (16), a clean robot (17), the outside effects from 18.
+        let small = Composition {
+            singles: 1,
+            pairs: 2,
+            ambiguous_pairs: 2,
+            triples: 1,
+            clean: 1,
+            outside: 1,
+        };
+        let seeds: Vec<u64> = ci_subset(1, &small).iter().map(|c| c.seed).collect();
+        assert_eq!(seeds, [1, 2, 3, 4, 5, 6, 12, 14, 15, 16, 17, 18]);
+        // Without pairs built ambiguous (pairs 12-13, the triple 14, clean 15, outside from 16)
+        // their room goes to singles.
+        let fewer = Composition {
+            ambiguous_pairs: 0,
+            ..small
+        };
+        let seeds: Vec<u64> = ci_subset(1, &fewer).iter().map(|c| c.seed).collect();
+        assert_eq!(seeds, [1, 2, 3, 4, 5, 6, 7, 8, 12, 14, 15, 16]);
+    }
 
     #[test]
     fn ranges_name_their_draws_and_refuse_a_spent_held_out_range() {
         let ci = range_cases(Range::Ci, None).unwrap();
-        assert_eq!(ci.iter().map(|c| c.seed).collect::<Vec<_>>(), CI_SEEDS);
-        assert_eq!(ci[0].scenario, "single:time_delay");
-        assert_eq!(ci[3].class, Class::Clean);
-        assert_eq!(ci[4].class, Class::Clean);
+        assert_eq!(ci.iter().map(|c| c.seed).collect::<Vec<_>>(), ci_seeds());
         let dev = range_cases(Range::Development, None).unwrap();
         assert_eq!(dev.len(), Composition::RANGE.draws());
         let spent = spent_ranges().unwrap();

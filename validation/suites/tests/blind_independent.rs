@@ -242,6 +242,7 @@ fn record_range(first_seed: u64, outcomes: &[Outcome], took: std::time::Duration
         false_effects: Some(s.false_alarms),
         ambiguous: Some(s.ambiguous),
         words: (s.words.1 > 0).then_some(s.words),
+        after_design: (s.after_design.1 > 0).then_some(s.after_design),
         minutes: Some(took.as_secs_f64() / 60.0),
         note: String::new(),
     };

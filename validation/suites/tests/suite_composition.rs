@@ -5,8 +5,8 @@
 use std::collections::BTreeMap;
 use zmp_indep_sim::{Effect, Scenario};
 use zmp_suites::indep::{
-    expected_words, markdown, scores, suite, Case, Class, Composition, LoopVerdict, Outcome,
-    ResidualFeature, AMBIGUOUS_PAIRS, OUTSIDE, PAIRS, SINGLES, TRIPLES,
+    expected_words, markdown, scores, suite, AfterDesign, Case, Class, Composition, LoopVerdict,
+    Outcome, ResidualFeature, AMBIGUOUS_PAIRS, OUTSIDE, PAIRS, SINGLES, TRIPLES,
 };
 
 /// The held-out range that follows the last one spent (see `tests/blind_independent.rs`).
@@ -158,6 +158,7 @@ fn outcome(scenario: &str, class: Class, hidden: &[&str], in_catalogue: bool) ->
         seconds: 1.0,
         error: None,
         time_limit_reached: false,
+        after_design: None,
     }
 }
 
@@ -244,6 +245,92 @@ fn an_ambiguous_set_holding_the_truth_counts_for_pairs_and_is_counted_apart() {
     assert!(table.contains("1/1 (21-100 %)"), "{table}");
     assert!(
         table.contains("built ambiguous: pair:time_delay,backlash"),
+        "{table}"
+    );
+}
+
+#[test]
+fn the_truth_named_alone_after_the_designed_experiment_is_scored_among_ambiguous_draws() {
+    let after = |found: &[&str], set: Option<Vec<Vec<&str>>>, error: Option<&str>| AfterDesign {
+        records: 2,
+        recording_s: 30.0,
+        predicted_sigma: 5.5,
+        found: names(found),
+        explained: true,
+        ambiguous_set: set.map(|s| s.iter().map(|x| names(x)).collect()),
+        error: error.map(String::from),
+        time_limit_reached: false,
+    };
+    let draw = |a: Option<AfterDesign>| {
+        let mut o = outcome(
+            "pair:time_delay,backlash",
+            Class::AmbiguousPair,
+            &["time_delay", "backlash"],
+            true,
+        );
+        o.found = names(&["backlash"]);
+        o.ambiguous_set = Some(vec![
+            names(&["backlash"]),
+            names(&["backlash", "time_delay"]),
+        ]);
+        o.after_design = a;
+        o
+    };
+    // The truth named alone (saturation never counts as false).
+    let decided = draw(Some(after(
+        &["acceleration_saturation", "time_delay", "backlash"],
+        None,
+        None,
+    )));
+    assert_eq!(decided.named_alone_after_design(), Some(true));
+    assert!(decided.named_alone());
+    // Still ambiguous, the play alone, a false effect beside the truth, an error, no design:
+    // not named alone.
+    let again = draw(Some(after(
+        &["backlash"],
+        Some(vec![vec!["backlash"], vec!["backlash", "time_delay"]]),
+        None,
+    )));
+    let play = draw(Some(after(&["backlash"], None, None)));
+    let extra = draw(Some(after(
+        &["backlash", "time_delay", "sensor_drift"],
+        None,
+        None,
+    )));
+    let failed = draw(Some(after(&[], None, Some("design-next: no candidate"))));
+    let none = draw(None);
+    for o in [&again, &play, &extra, &failed, &none] {
+        assert_eq!(
+            o.named_alone_after_design(),
+            Some(false),
+            "{:?}",
+            o.after_design
+        );
+        assert!(!o.named_alone());
+        // Still right as a pair: the truth inside the first loop's set.
+        assert!(o.right());
+    }
+    // A draw that did not end ambiguous is not scored after a design; it is named alone
+    // when the loop named the truth alone.
+    let mut direct = draw(None);
+    direct.ambiguous_set = None;
+    direct.found = names(&["time_delay", "backlash"]);
+    assert_eq!(direct.named_alone_after_design(), None);
+    assert!(direct.named_alone());
+    let s = scores(&[decided, again, play, extra, failed, none, direct]);
+    assert_eq!(s.after_design, (1, 6));
+    let table = markdown(
+        "synthetic",
+        &[
+            draw(Some(after(&["time_delay", "backlash"], None, None))),
+            draw(None),
+        ],
+    );
+    // The row's column: 1 of its 2 ambiguous draws named alone; the rate with its Wilson
+    // interval (1 of 2: 9-91 %).
+    assert!(table.contains("| 2 | 1/2 |"), "{table}");
+    assert!(
+        table.contains("named alone after one designed experiment: 1/2 (9-91 %)"),
         "{table}"
     );
 }

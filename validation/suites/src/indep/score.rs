@@ -34,6 +34,9 @@ pub struct Scores {
     pub false_alarms: (usize, usize),
     /// In-catalogue draws ending ambiguous.
     pub ambiguous: (usize, usize),
+    /// Draws that ended ambiguous: the truth named alone after one designed experiment
+    /// ([`Outcome::named_alone_after_design`]) / such draws.
+    pub after_design: (usize, usize),
 }
 
 fn add(x: &mut (usize, usize), ok: bool) {
@@ -69,6 +72,9 @@ pub fn scores(outcomes: &[Outcome]) -> Scores {
         }
         if let Some(ok) = o.words_right() {
             add(&mut s.words, ok);
+        }
+        if let Some(ok) = o.named_alone_after_design() {
+            add(&mut s.after_design, ok);
         }
         if o.in_catalogue {
             add(&mut s.closed, o.closed());
@@ -118,8 +124,10 @@ fn col_of(o: &Outcome) -> String {
 }
 
 /// The confusion table (rows: what was hidden; columns: the first effect the loop added, or
-/// its outcome when it added none; `ambig` counts the row's draws that ended ambiguous, and
-/// `right` its right draws with their Wilson interval) and the scores, as markdown.
+/// its outcome when it added none; `ambig` counts the row's draws that ended ambiguous,
+/// `alone after design` those of them whose truth the loop named alone once the designed
+/// experiment's records were appended, and `right` the row's right draws with their Wilson
+/// interval) and the scores, as markdown.
 pub fn markdown(title: &str, outcomes: &[Outcome]) -> String {
     use std::collections::BTreeMap;
     let short = |s: &str| -> String {
@@ -156,8 +164,8 @@ pub fn markdown(title: &str, outcomes: &[Outcome]) -> String {
             .collect::<Vec<_>>()
             .join(" | "),
     );
-    t.push_str(" | ambig | right |\n|---");
-    t.push_str(&"|---".repeat(cols.len() + 2));
+    t.push_str(" | ambig | alone after design | right |\n|---");
+    t.push_str(&"|---".repeat(cols.len() + 3));
     t.push_str("|\n");
     for ((_, r), row) in &rows {
         t.push_str(&format!("| {r} |"));
@@ -168,8 +176,20 @@ pub fn markdown(title: &str, outcomes: &[Outcome]) -> String {
             }
         }
         let ambiguous = row.iter().filter(|o| o.ambiguous()).count();
+        let alone = row
+            .iter()
+            .filter(|o| o.named_alone_after_design() == Some(true))
+            .count();
+        let alone = if ambiguous == 0 {
+            "·".to_string()
+        } else {
+            format!("{alone}/{ambiguous}")
+        };
         let right = row.iter().filter(|o| o.right()).count();
-        t.push_str(&format!(" {ambiguous} | {} |\n", pct((right, row.len()))));
+        t.push_str(&format!(
+            " {ambiguous} | {alone} | {} |\n",
+            pct((right, row.len()))
+        ));
     }
     let s = scores(outcomes);
     t.push_str(&format!(
@@ -179,7 +199,8 @@ pub fn markdown(title: &str, outcomes: &[Outcome]) -> String {
          (pairs {}, pairs built ambiguous {}; through the set {}). Clean robots without a false \
          effect: {}. Outside the catalogue ending unexplained: {}; its residual described \
          right: {}. In-catalogue draws explained within 2x the noise floor after the loop: {} \
-         (worst {:.2}x); with a false effect: {}; ending ambiguous: {}.\n",
+         (worst {:.2}x); with a false effect: {}; ending ambiguous: {}. Of the draws that \
+         ended ambiguous, the truth named alone after one designed experiment: {}.\n",
         pct(s.singles),
         pct(s.in_structure),
         pct(s.multiples),
@@ -193,6 +214,7 @@ pub fn markdown(title: &str, outcomes: &[Outcome]) -> String {
         s.worst_closed_ratio,
         pct(s.false_alarms),
         pct(s.ambiguous),
+        pct(s.after_design),
     ));
     let limited: Vec<String> = outcomes
         .iter()
