@@ -66,9 +66,6 @@ fn an_ambiguous_loop_says_what_became_of_the_experiment_that_decides() {
 }
 
 #[test]
-#[ignore = "known failure: design_next panics on a rival with a sensor low-pass \
-            (zmp_diagnose::design::parts calls refit_frees with no records; the low-pass's \
-            cutoff range becomes [inf, 0] and f64::clamp panics); reported to the lead"]
 fn an_ambiguous_loop_writes_the_experiment_that_decides() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
