@@ -58,7 +58,10 @@ fn model_parses(p: &Path) {
     }
 }
 
-/// Every model file in `dir` parses (none is half-written).
+/// The design a loop that ends `ambiguous` writes beside its versions.
+const DESIGN: &str = "design-next.toml";
+
+/// Every model file in `dir` parses (none is half-written), and so does the loop's design.
 fn models_parse(dir: &Path) {
     let Ok(rd) = std::fs::read_dir(dir) else {
         return;
@@ -68,6 +71,11 @@ fn models_parse(dir: &Path) {
         let name = e.file_name().to_string_lossy().into_owned();
         if name.ends_with(".toml") && !name.starts_with('.') {
             let text = std::fs::read_to_string(&p).unwrap();
+            if name == DESIGN {
+                zmp_virtual_robot::ExperimentDesign::from_toml(&text, &name)
+                    .unwrap_or_else(|e| panic!("{}: half-written? {e}", p.display()));
+                continue;
+            }
             zmp_models::ModelSpec::parse(&text, &name)
                 .unwrap_or_else(|e| panic!("{}: half-written? {e}", p.display()));
         }
@@ -272,6 +280,7 @@ fn kill_loop(runs: usize) {
                 .flatten()
                 .map(|e| e.path())
                 .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+                .filter(|p| p.file_name().is_some_and(|n| n != DESIGN))
                 .collect();
             let mut on_chains: Vec<String> = Vec::new();
             for v in &versions {
