@@ -44,6 +44,7 @@ mod uncertainty;
 
 pub use campaign_fit::identify_analysed;
 pub use model_file::{summary_json, write_model};
+pub use noise::normal_quantile;
 pub use record_analysis::{analyse_folder, analyse_record, analyse_records, pool_noise};
 
 use num_complex::Complex64;

@@ -203,7 +203,7 @@ pub(crate) fn f_deviate(f: f64, d1: f64, d2: f64) -> f64 {
 
 /// The standard normal quantile (Acklam's rational approximation, relative error below
 /// 1.2e-9 over `(0, 1)`).
-pub(crate) fn normal_quantile(p: f64) -> f64 {
+pub fn normal_quantile(p: f64) -> f64 {
     const A: [f64; 6] = [
         -3.969_683_028_665_376e1,
         2.209_460_984_245_205e2,
