@@ -210,6 +210,9 @@ mod tests {
             (crate::EffectKind::AccelerationSaturation, 0.8, 15.0, 0.008),
             (crate::EffectKind::AccelerationSaturation, 0.2, 6.0, 0.008),
             (crate::EffectKind::CoulombFriction, 0.05, 3.0, 0.005),
+            // A slow sweep's record: half a period settles it, so the run ends where its
+            // first period comes back to its start.
+            (crate::EffectKind::CoulombFriction, 0.3, 0.5, 0.003),
         ] {
             let plain = plain_harmonic(kind, value, omega, amplitude, 400, 3);
             let third = limit(kind, value, 1e-3).third_harmonic(omega, amplitude);
@@ -221,6 +224,17 @@ mod tests {
             assert!(
                 plain.norm() > 1e-3,
                 "{kind} {value}: third harmonic {plain}"
+            );
+            // The describing function against the plain runs' ratio, with and without the
+            // effect (a friction of level zero is the linear servo).
+            let linear = crate::EffectKind::CoulombFriction;
+            let plain1 = plain_first_harmonic(kind, value, omega, amplitude, 400)
+                / plain_first_harmonic(linear, 0.0, omega, amplitude, 400);
+            let first = limit(kind, value, 1e-3).frequency_response(omega, amplitude);
+            let rel = (first - plain1).norm() / plain1.norm();
+            assert!(
+                rel < 1e-6,
+                "{kind} {value}: describing function {first} against {plain1} ({rel:e})"
             );
         }
         let (_, none) = servo_harmonics((30.0, 1.0), 1e-3, None, &mut [], [0.0; 3], 6.0, 0.008);

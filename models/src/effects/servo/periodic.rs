@@ -185,10 +185,22 @@ fn periodic_response(
     let mut history3: Vec<Complex64> = Vec::with_capacity(FAST_PERIODS);
     let mut since = 0;
     let mut states: Vec<Vec<f64>> = vec![servo.state()];
+    // The state the current period started from.
+    let mut start = servo.state();
     for period in 0..FAST_PERIODS {
         let (p1, p3) = one_period(servo, grid, &mut e, limits, amplitude);
         history.push(p1);
         history3.push(p3);
+        // Back where the period started: the orbit is periodic (the servo effects hold no
+        // state of their own), and this period's phasors are its harmonics.
+        let now = servo.state();
+        if returned(&start, &now, p1.norm(), grid.omega) {
+            let h = Harmonics {
+                first: p1 / amplitude,
+                third: p3 / amplitude,
+            };
+            return (h, end(servo));
+        }
         if let Some(p) = locked_cycle(&history, &history3, since, amplitude) {
             return (p, end(servo));
         }
@@ -204,6 +216,7 @@ fn periodic_response(
             states.clear();
             states.push(servo.state());
         }
+        start = servo.state();
     }
     // Not locked to a cycle of up to six periods within sixty: the Fourier coefficient over
     // the last twelve periods (a whole number of cycles of 1, 2, 3, 4 or 6 periods), the
@@ -244,6 +257,20 @@ fn one_period(
     *e /= e.norm();
     let scale = Complex64::new(0.0, 2.0 / grid.per as f64);
     (acc * scale, acc3 * scale)
+}
+
+/// Whether the state at a period's end, `now`, is the state it started from, `start`, to
+/// [`FAST_SETTLED_REL`] of the orbit's size: positions (even indices of [`Servo::state`])
+/// against `size`, the first harmonic's amplitude, velocities against `omega size`. The
+/// servo's step depends on its state and the reference alone, so a state that comes back
+/// after a whole period starts the same period again: the orbit is periodic from there, and
+/// the period just run is one of it (one period instead of the three the phasor test needs).
+fn returned(start: &[f64], now: &[f64], size: f64, omega: f64) -> bool {
+    let size = size.max(1e-300);
+    start.iter().zip(now).enumerate().all(|(i, (a, b))| {
+        let scale = if i % 2 == 0 { size } else { omega * size };
+        (a - b).abs() <= FAST_SETTLED_REL * scale
+    })
 }
 
 /// The harmonics over `amplitude` once the phasors since period `since` repeat with a period
