@@ -140,12 +140,15 @@ pub enum Cmd {
     /// point), and an HTML report (Bode and time overlays, residual spectrum, harmonics,
     /// error against frequency, amplitude and operating point).
     Compare(CompareCmd),
-    /// Name the physical effect the model is missing: every catalogued effect (time_delay,
-    /// backlash, coulomb_friction, acceleration_saturation, structural_mode, sensor_lowpass,
-    /// operating_point_dependence, sensor_drift, cross_coupling) is added, fitted with the
-    /// pendulum and bandwidth, and scored on held-out records; effects are added forward
-    /// while they remove a significant part of the error. Verdict: an effect, `none` (the
-    /// model explains the data to the noise floor) or `unexplained`.
+    /// Name the physical effects the model is missing: one search over structures (the model
+    /// plus up to four catalogued effects: time_delay, backlash, coulomb_friction,
+    /// acceleration_saturation, structural_mode, sensor_lowpass, operating_point_dependence,
+    /// sensor_drift, cross_coupling), each fitted with the pendulum and servo on half of the
+    /// frequencies and scored on the other half against the records' period-to-period noise,
+    /// compared by one test at 1 % shared over the comparisons (docs/src/diagnosis.md).
+    /// Verdict: the effects, `none` (the model explains the data), `parameter_refit`,
+    /// `ambiguous` (the structures the records cannot separate; `loop` then designs the
+    /// records that will) or `unexplained` (the residual described in words).
     Diagnose(DiagnoseCmd),
     /// Add a catalogued effect to a model, fitted with the pendulum and bandwidth on every
     /// record of a campaign; writes the new model (default <model>+<effect>.toml beside it)

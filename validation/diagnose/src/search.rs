@@ -23,7 +23,7 @@
 use crate::criterion::{compare, split, threshold, Comparison, HeldOut};
 use crate::fit::{core_frees, fit_starts, undo, Fit};
 use crate::observe::Observation;
-use crate::profiles::{candidates, profile, DataRange, Start};
+use crate::profiles::{candidates, effect_frees, profile, DataRange, Start};
 use crate::structure::{Candidate, Structure};
 use std::collections::BTreeMap;
 use zmp_models::ModelSpec;
@@ -397,7 +397,16 @@ pub fn fit_all(
                 .iter()
                 .filter_map(|c| all.get_key_value(&step.without(c)))
                 .collect();
-            fit_starts(&starts_of(&step, &parents, root, &r), obs, &r)
+            // Where no start from the chain can be fitted on every record, the structure's
+            // own fits on each fold's records are its starts.
+            fit_starts(&starts_of(&step, &parents, root, &r), obs, &r).or_else(|| {
+                let folds = &search.nodes.get(&step)?.folds;
+                let own: Vec<Start> = folds
+                    .iter()
+                    .map(|f| (f.spec.clone(), effect_frees(&f.spec, &r)))
+                    .collect();
+                fit_starts(&own, obs, &r)
+            })
         };
         // Past the time limit no fit runs: the structure keeps what the search reached, its
         // fit on the first fold's records.
