@@ -13,9 +13,9 @@ use zmp_models::EffectKind;
 use zmp_models::{Axis, Binding, EffectInstance, ModelSpec};
 use zmp_virtual_robot::{simulate_campaign, ExperimentDesign};
 
-/// Name of the campaign folder that [`write`] creates.
+/// Name of the campaign folder that [`write()`] creates.
 pub const CAMPAIGN: &str = "small-campaign";
-/// Name of the identified model file that [`write`] creates beside it.
+/// Name of the identified model file that [`write()`] creates beside it.
 pub const MODEL: &str = "small-campaign-identified.toml";
 
 /// The demo's hidden robot: the paper's model, 40 ms servo latency, drifting ZMP sensor (y).

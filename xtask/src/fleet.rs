@@ -109,7 +109,7 @@ pub fn job(dir: &Path, time_limit: u64) -> Result<(Job, Vec<(String, PathBuf)>)>
     Ok((Job::new(JobKind::Fleet, params, units)?, campaigns))
 }
 
-/// One campaign's loop, quiet, into OUT/loops/<id>; its summary as the unit's outcome.
+/// One campaign's loop, quiet, into `OUT/loops/<id>`; its summary as the unit's outcome.
 fn run_unit(campaign: &Path, out: &Path, time_limit: u64) -> Result<Value> {
     let camp = crate::diagnose::read(campaign, true)?;
     let summary = run_loop(

@@ -16,14 +16,19 @@ use zmp_models::ModelSpec;
 /// A model with an effect added or its structure refitted, and its error before and after.
 #[derive(Debug, Clone)]
 pub struct Augmented {
+    /// The new model, with fitted values, standard errors and provenance (ready to write).
     pub spec: ModelSpec,
     /// What changed: `+time_delay`, `refit`.
     pub change: String,
+    /// Campaign error (the diagnosis measure) of the model this one follows.
     pub error_before: f64,
+    /// Campaign error of the new model on the same records.
     pub error_after: f64,
+    /// Noise floor of the same records: the error a perfect model would still show.
     pub noise_floor: f64,
     /// Fitted parameters of every effect beyond the core: value, s.e.
     pub parameters: BTreeMap<String, (f64, f64)>,
+    /// How many records the fit and both errors were computed on.
     pub records: usize,
 }
 

@@ -10,7 +10,9 @@ use zmp_models::{Axis, Channel};
 /// normalisation (they sum over the two outputs to the record's score).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ChannelScore {
+    /// Squared prediction error of the channel (fundamental and slope terms).
     pub error2: f64,
+    /// Squared noise floor of the channel: the error noise alone would produce.
     pub floor2: f64,
 }
 
@@ -46,9 +48,11 @@ pub struct Cell {
     pub amplitude_m: f64,
     /// Operating point `[x, y]`, m.
     pub operating_point_m: [f64; 2],
+    /// How many records fall in the cell.
     pub records: usize,
     /// RMS error and noise floor of the cell's records (the diagnosis measure, this channel).
     pub error: f64,
+    /// RMS noise floor of the same records: the error noise alone would give.
     pub noise_floor: f64,
     /// `error / noise_floor`.
     pub ratio: f64,
@@ -89,6 +93,7 @@ pub fn band_of(omega: f64, lo: f64, hi: f64) -> usize {
     ((x * 3.0).floor() as usize).min(2)
 }
 
+/// Names of the three frequency bands, indexed by [`band_of`].
 pub const BAND_NAMES: [&str; 3] = ["low", "mid", "high"];
 
 /// Cells of the campaign against predictions `preds`, most failing first.

@@ -102,12 +102,15 @@ pub fn distinct_omegas(obs: &[&Observation]) -> Vec<f64> {
 #[derive(Debug, Clone, PartialEq)]
 pub struct HeldOut {
     /// Per record (observation order): its residual components over their noise
-    /// (`measure::whitened`), their chi-square and the error measure.
+    /// (`measure::whitened`).
     pub residuals: Vec<Vec<f64>>,
+    /// Per record: the chi-square of its whitened residuals (sum of their squares).
     pub chi2s: Vec<f64>,
+    /// Per record: its squared error and squared noise floor (the error measure).
     pub scores: Vec<RecordScore>,
-    /// Their sum, and the campaign's error (RMS over records).
+    /// Sum of `chi2s`: the structure's held-out chi-square, the score the search compares.
     pub chi2: f64,
+    /// The campaign's held-out error (RMS over records of the error measure).
     pub error: f64,
 }
 

@@ -25,6 +25,7 @@
 //! when every ordered pair is separated by [`TARGET_SIGMA`] noise standard deviations.
 
 mod evaluate;
+mod greedy;
 pub mod limits;
 pub mod noise;
 pub mod separation;
@@ -34,11 +35,10 @@ use crate::measure::Prediction;
 use crate::observe::Observation;
 use crate::profiles::DataRange;
 use crate::run::{check_inputs, observe_campaign, DiagnoseError, DiagnoseOptions};
+use greedy::{greedy, Greedy};
 use limits::{centres, Candidate, Limits, RecordTiming};
 use noise::NoiseModel;
-use separation::{
-    as_truth, candidate_observation, gains, predict_all, record_set, refit, Pair, NESTED_CHI2,
-};
+use separation::{as_truth, candidate_observation, predict_all};
 use zmp_campaign::Campaign;
 use zmp_models::{Axis, ModelSpec};
 
@@ -53,7 +53,9 @@ pub const TARGET_SIGMA: f64 = 5.0;
 /// One rival structure: a fitted model and the name it goes by (its file).
 #[derive(Debug, Clone)]
 pub struct Rival {
+    /// The name the rival goes by in the design and its errors (its model file).
     pub label: String,
+    /// The rival's fitted model; the design refits its parameters to each other rival.
     pub spec: ModelSpec,
 }
 
@@ -62,8 +64,11 @@ pub struct Rival {
 pub struct DesignOptions {
     /// The campaign's name in errors.
     pub campaign_path: String,
+    /// Most records the design may propose; it stops earlier once every pair is decided.
     pub max_records: usize,
+    /// Separation, in noise standard deviations, at which a pair counts as decided.
     pub target_sigma: f64,
+    /// Worker threads for the candidate evaluations.
     pub threads: usize,
     /// Noise seed written into the design (for the simulators).
     pub seed: u64,
@@ -81,41 +86,69 @@ impl Default for DesignOptions {
     }
 }
 
+/// Why a design could not be made: wrong rivals, unusable inputs, no room for a record.
 #[derive(Debug, thiserror::Error)]
 pub enum DesignError {
+    /// Fewer than two or more than three rival models were given (the count given).
     #[error("design-next separates two or three rival models; got {0} (name each with --model)")]
     ModelCount(usize),
+    /// Two rivals share one structure, so no record can separate them.
     #[error(
         "{first} and {second} have the same structure ({structure}): the design refits every \
          parameter of a rival, so no record can separate them"
     )]
     SameStructure {
+        /// Label of the first rival.
         first: String,
+        /// Label of the second rival, whose structure equals the first's.
         second: String,
+        /// The shared structure, as the diagnosis names it.
         structure: String,
     },
     /// A model that does not describe the campaign (another robot, units, swapped axes), or a
     /// campaign the diagnosis cannot use: the diagnosis's own checks.
     #[error(transparent)]
     Input(#[from] DiagnoseError),
+    /// The campaign has no noise estimate for an output, and the design weighs records by it.
     #[error(
         "{campaign}: no record has a noise estimate of {output} (its first-harmonic variance is \
          zero or undefined: a campaign simulated without noise, or records too short): the \
          design weighs every record by its noise"
     )]
-    NoNoise { campaign: String, output: String },
+    NoNoise {
+        /// The campaign's name.
+        campaign: String,
+        /// The output channel without a noise estimate.
+        output: String,
+    },
+    /// Every candidate record of the grid breaks a limit under some rival.
     #[error("{campaign}: no candidate record lies within the limits ({why})")]
-    NoCandidates { campaign: String, why: String },
+    NoCandidates {
+        /// The campaign's name.
+        campaign: String,
+        /// The grid and the limits that excluded every candidate.
+        why: String,
+    },
+    /// A rival could not be refitted to the predictions of the model taken as true.
     #[error("{model}: its refit to {truth}'s predictions failed")]
-    Fit { model: String, truth: String },
+    Fit {
+        /// Label of the rival whose refit failed.
+        model: String,
+        /// Label of the model taken as true.
+        truth: String,
+    },
 }
 
 /// A designed record.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DesignedRecord {
+    /// The axis the reference sine drives.
     pub excited: Axis,
+    /// Excitation frequency, rad/s.
     pub omega: f64,
+    /// Reference amplitude, m.
     pub amplitude: f64,
+    /// Operating point `[x, y]` the sine is centred on, m.
     pub operating_point: [f64; 2],
     /// Its length (transient and steady state), s.
     pub duration_s: f64,
@@ -124,8 +157,9 @@ pub struct DesignedRecord {
 /// An ordered pair's separation, in noise standard deviations.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Separation {
-    /// Index of the model taken as true, and of the refitted rival.
+    /// Index (into the rivals) of the model taken as true.
     pub truth: usize,
+    /// Index of the rival refitted to the true model's predictions.
     pub rival: usize,
     /// On the campaign alone.
     pub campaign_sigma: f64,
@@ -142,21 +176,29 @@ pub struct Separation {
 /// The designed experiment.
 #[derive(Debug, Clone)]
 pub struct Designed {
+    /// The rivals' labels, in the order the separations index them.
     pub labels: Vec<String>,
+    /// The proposed records, in the order the greedy construction chose them.
     pub records: Vec<DesignedRecord>,
+    /// Every ordered pair's separation with the finished design.
     pub separations: Vec<Separation>,
     /// The smallest separation over the ordered pairs (noise standard deviations) on the
     /// campaign alone and after each record, as the greedy construction went.
     pub path: Vec<f64>,
+    /// The separation the design aimed for, noise standard deviations.
     pub target_sigma: f64,
+    /// How long each designed record runs, read from the campaign's records.
     pub timing: RecordTiming,
+    /// The robot's limits every designed record stays within.
     pub limits: Limits,
     /// White ZMP noise per sample for the simulators, m: the campaign's residual noise less
     /// the quantisation's share.
     pub zmp_noise_std: f64,
+    /// Noise seed for the simulators that run the design.
     pub seed: u64,
-    /// Candidate records on the grid, and within every limit under every rival.
+    /// How many candidate records the grid holds.
     pub grid: usize,
+    /// How many of them lie within every limit under every rival.
     pub candidates: usize,
 }
 
@@ -407,181 +449,4 @@ fn admitted(
         .map(|p| keep.iter().map(|&k| as_truth(&blank[k], &p[k])).collect())
         .collect();
     Ok((keep.iter().map(|&k| grid[k]).collect(), truths))
-}
-
-/// What the greedy construction ends with.
-struct Greedy {
-    /// Every ordered pair, refitted on the campaign and the chosen records.
-    pairs: Vec<Pair>,
-    /// The chosen candidates, in order.
-    chosen: Vec<usize>,
-    /// The smallest separation (noise standard deviations) before and after each record.
-    path: Vec<f64>,
-}
-
-/// The greedy construction (see the module documentation).
-fn greedy(
-    rivals: &[Rival],
-    campaign: &[Vec<Observation>],
-    truths: &[Vec<Observation>],
-    opts: &DesignOptions,
-    progress: &(dyn Fn(&str) + Sync),
-) -> Result<Greedy, DesignError> {
-    let n = rivals.len();
-    let ordered: Vec<(usize, usize)> = (0..n)
-        .flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j)))
-        .collect();
-    let threads = zmp_campaign::par::budget();
-    let fit_error = |i: usize, j: usize| DesignError::Fit {
-        model: rivals[j].label.clone(),
-        truth: rivals[i].label.clone(),
-    };
-    progress("refitting each rival to the others' predictions");
-    let mut pairs = zmp_campaign::par::parallel_map(ordered.len(), threads, |k| {
-        let (i, j) = ordered[k];
-        separation::start(i, j, &rivals[j].spec, &rivals[i].spec, &campaign[i])
-    })
-    .into_iter()
-    .zip(&ordered)
-    .map(|(p, &(i, j))| p.ok_or_else(|| fit_error(i, j)))
-    .collect::<Result<Vec<Pair>, _>>()?;
-    // A rival whose structure contains the truth's and whose refit reproduces the truth's
-    // campaign within one noise standard deviation nests it: its extra effects vanish at the
-    // truth (the refit's remainder is numerics, or the describing functions' simulation).
-    for p in pairs.iter_mut() {
-        p.nested = contains(&rivals[p.rival].spec, &rivals[p.truth].spec) && p.total < 1.0;
-    }
-    let cap = opts.target_sigma * opts.target_sigma;
-    let smallest = |pairs: &[Pair]| {
-        pairs
-            .iter()
-            .filter(|p| !p.nested)
-            .map(|p| p.total)
-            .reduce(f64::min)
-            // Every direction nested: the rivals are one another on every record.
-            .unwrap_or(0.0)
-    };
-    let campaign_top = campaign[0].iter().map(|o| o.omega).fold(0.0, f64::max);
-    let mut chosen: Vec<usize> = Vec::new();
-    let mut path = Vec::new();
-    loop {
-        let top = chosen
-            .iter()
-            .map(|&k| truths[0][k].omega)
-            .fold(campaign_top, f64::max);
-        let gain: Vec<Vec<f64>> = pairs
-            .iter()
-            .map(|p| {
-                if p.nested {
-                    return Ok(vec![0.0; truths[p.truth].len()]);
-                }
-                let mine: Vec<Observation> = truths[p.truth]
-                    .iter()
-                    .map(|o| Observation {
-                        third_band: 3.0 * o.omega <= top.max(o.omega) * (1.0 + 1e-9),
-                        ..o.clone()
-                    })
-                    .collect();
-                gains(p, &mine).ok_or_else(|| fit_error(p.truth, p.rival))
-            })
-            .collect::<Result<_, _>>()?;
-        // A rival that reproduces its truth on the campaign, the records so far and every
-        // candidate nests it (found once its refit has travelled there).
-        for (p, g) in pairs.iter_mut().zip(&gain) {
-            p.nested |= p.total < NESTED_CHI2 && g.iter().all(|v| *v < NESTED_CHI2);
-        }
-        if chosen.is_empty() {
-            path.push(smallest(&pairs).max(0.0).sqrt());
-        } else {
-            let last = path.len() - 1;
-            path[last] = smallest(&pairs).max(0.0).sqrt();
-            progress(&format!(
-                "record {}/{}: smallest separation {:.2} noise standard deviations",
-                chosen.len(),
-                opts.max_records,
-                path[last]
-            ));
-        }
-        if chosen.len() >= opts.max_records || smallest(&pairs) >= cap {
-            break;
-        }
-        let active: Vec<Pair> = pairs.iter().filter(|p| !p.nested).cloned().collect();
-        let active_gain: Vec<Vec<f64>> = pairs
-            .iter()
-            .zip(gain)
-            .filter(|(p, _)| !p.nested)
-            .map(|(_, g)| g)
-            .collect();
-        let Some(best) = pick(&active, &active_gain, cap) else {
-            progress("no candidate separates the rivals further");
-            break;
-        };
-        chosen.push(best);
-        pairs = zmp_campaign::par::parallel_map(pairs.len(), threads, |k| {
-            let p = &pairs[k];
-            if p.nested {
-                return Some(p.clone());
-            }
-            let added: Vec<Observation> =
-                chosen.iter().map(|&c| truths[p.truth][c].clone()).collect();
-            let set = record_set(&campaign[p.truth], &added);
-            refit(p, &set, campaign[p.truth].len(), None)
-        })
-        .into_iter()
-        .zip(&pairs)
-        .map(|(r, p)| r.ok_or_else(|| fit_error(p.truth, p.rival)))
-        .collect::<Result<_, _>>()?;
-        path.push(smallest(&pairs).max(0.0).sqrt());
-    }
-    // The finished design's separations, the rival also refitted from its own fitted values
-    // (a refit stuck where the greedy path took it would overstate the separation).
-    if !chosen.is_empty() {
-        pairs = zmp_campaign::par::parallel_map(pairs.len(), threads, |k| {
-            let p = &pairs[k];
-            if p.nested {
-                return Some(p.clone());
-            }
-            let added: Vec<Observation> =
-                chosen.iter().map(|&c| truths[p.truth][c].clone()).collect();
-            let set = record_set(&campaign[p.truth], &added);
-            refit(
-                p,
-                &set,
-                campaign[p.truth].len(),
-                Some(&rivals[p.rival].spec),
-            )
-        })
-        .into_iter()
-        .zip(&pairs)
-        .map(|(r, p)| r.ok_or_else(|| fit_error(p.truth, p.rival)))
-        .collect::<Result<_, _>>()?;
-    }
-    Ok(Greedy {
-        pairs,
-        chosen,
-        path,
-    })
-}
-
-/// The candidate that maximises the smallest capped separation after it (ties: the larger
-/// capped sum); `None` when no candidate adds anything.
-fn pick(pairs: &[Pair], gain: &[Vec<f64>], cap: f64) -> Option<usize> {
-    let n = gain.first()?.len();
-    let score = |k: usize| {
-        let after: Vec<f64> = pairs
-            .iter()
-            .zip(gain)
-            .map(|(p, g)| (p.total + g[k].max(0.0)).min(cap))
-            .collect();
-        (
-            after.iter().copied().fold(f64::INFINITY, f64::min),
-            after.iter().sum::<f64>(),
-        )
-    };
-    let now: f64 = pairs.iter().map(|p| p.total.min(cap)).sum();
-    let best = (0..n).max_by(|&a, &b| {
-        let (sa, sb) = (score(a), score(b));
-        sa.0.total_cmp(&sb.0).then(sa.1.total_cmp(&sb.1))
-    })?;
-    (score(best).1 > now * (1.0 + 1e-9) + 1e-12).then_some(best)
 }

@@ -23,24 +23,31 @@ use crate::profiles::{
 };
 use zmp_models::{Axis, Binding, Channel, EffectKind, ModelSpec};
 
-/// Iterations of a start's short fit and of the joint fit; a model written as a version is
-/// fitted on at most this many times more while it still descends (1 % over five iterations).
+/// Iterations of a start's short fit (its own effect's parameters only).
 pub const ITERS_SHORT: usize = 6;
 /// Starts fitted after each start is evaluated as it is (the nearest to the records).
 pub const KEEP: usize = 2;
+/// Iterations of the joint fit, every parameter free, from the best short fit.
 pub const ITERS_JOINT: usize = 12;
+/// A model written as a version is fitted on at most this many times [`ITERS_JOINT`] more
+/// while it still descends (1 % over five iterations).
 pub const DESCENT_FACTOR: usize = 2;
 
 /// One scalar a fit moves; it sets `param` of `kind` at every binding listed.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Free {
+    /// The effect (or the core) the parameter belongs to.
     pub kind: EffectKind,
+    /// Where the one value is written: an axis, an output, or the whole model.
     pub bindings: Vec<Binding>,
+    /// The parameter's key in the model file.
     pub param: &'static str,
+    /// Its current value and the bounds the fit keeps it within.
     pub bounds: Bounded,
 }
 
 impl Free {
+    /// A free parameter starting at `value`, clamped into `[min, max]`.
     pub fn new(
         kind: EffectKind,
         bindings: Vec<Binding>,
@@ -84,9 +91,11 @@ pub fn apply(spec: &mut ModelSpec, frees: &[Free], theta: &[f64]) {
 /// A fitted model.
 #[derive(Debug, Clone)]
 pub struct Fit {
+    /// The model at the fitted values.
     pub spec: ModelSpec,
-    /// Every parameter the joint fit moved, at its fitted value, and its standard error.
+    /// Every parameter the joint fit moved, at its fitted value.
     pub frees: Vec<Free>,
+    /// Standard error of each of `frees`, in the same order (not finite when undetermined).
     pub std_err: Vec<f64>,
     /// Chi-square on the records fitted.
     pub cost: f64,

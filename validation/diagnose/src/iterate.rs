@@ -20,10 +20,13 @@ use zmp_models::ModelSpec;
 /// What went wrong in the loop.
 #[derive(Debug, thiserror::Error)]
 pub enum LoopError {
+    /// The identification of the starting model failed.
     #[error(transparent)]
     Identify(#[from] IdentifyError),
+    /// A diagnosis of the loop failed (bad campaign, model or fit).
     #[error(transparent)]
     Diagnose(#[from] DiagnoseError),
+    /// A model the loop built could not be made or written.
     #[error("{0}")]
     Model(#[from] zmp_models::ModelError),
 }
@@ -43,9 +46,11 @@ pub enum Outcome {
 /// What the loop found and the models it went through.
 #[derive(Debug, Clone)]
 pub struct LoopResult {
+    /// The identification the loop started from (its model is the first version).
     pub identification: Identification,
-    /// The identified model's error and noise floor.
+    /// The identified model's error (the diagnosis measure).
     pub identified_error: f64,
+    /// The campaign's noise floor: the error a perfect model would still show.
     pub noise_floor: f64,
     /// Each version after the identified model along the best structure's chain: the effects
     /// it adds (none for the structure refitted, change `refit`) and the model.
@@ -56,12 +61,15 @@ pub struct LoopResult {
     pub diagnoses: Vec<Diagnosis>,
     /// Effects the last model names, in the order of its chain.
     pub found: Vec<String>,
+    /// How the loop ended: explained, unexplained or ambiguous.
     pub outcome: Outcome,
     /// When ambiguous: every structure of the set, its effects' names, best first.
     pub set: Vec<Vec<String>>,
     /// Whether the last model explains the data.
     pub explained: bool,
+    /// The last model's error (the diagnosis measure).
     pub final_error: f64,
+    /// The last model the loop reached: the identified one with the effects it found.
     pub final_model: ModelSpec,
     /// The observations the loop compared (the identification's record analyses).
     pub observations: Vec<Observation>,

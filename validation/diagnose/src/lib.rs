@@ -4,6 +4,8 @@
 //! chi-square and compared by one paired test at a stated significance level; when the
 //! records cannot separate several structures, the verdict says so and names them.
 
+#![warn(missing_docs)]
+
 pub mod augment;
 pub mod cells;
 pub mod criterion;

@@ -5,15 +5,19 @@ use nalgebra::{DMatrix, DVector};
 /// A scalar the fit may change, with bounds.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Bounded {
+    /// The current value (the start, before a fit).
     pub value: f64,
+    /// Lowest value the fit may give it.
     pub min: f64,
+    /// Highest value the fit may give it.
     pub max: f64,
 }
 
 /// Minimises `|r(theta)|^2` in at most `max_iter` iterations, and up to `extra` more while the
-/// cost still falls by more than a statistically meaningful amount ([`still_descending`]: a
-/// fit in a long curved valley descends steadily but slowly). `r` returns `None` for parameters it cannot
-/// evaluate (treated as a failed step). Once `stop()` says so (a time limit), the fit ends
+/// cost still falls by more than a statistically meaningful amount (over the last
+/// [`DESCENT_WINDOW`] iterations, by more than [`NEGLIGIBLE_CHI2`] per iteration scaled by the
+/// mismatch factor: a fit in a long curved valley descends steadily but slowly). `r` returns
+/// `None` for parameters it cannot evaluate (treated as a failed step). Once `stop()` says so (a time limit), the fit ends
 /// with the best parameters so far: checked before each iteration and where `r` fails while
 /// the Jacobian is formed (`r` may fail because of the limit). Returns the best parameters,
 /// the final cost and the Gauss-Newton covariance diagonal `(J^T J)^{-1}` scaled by the
@@ -154,7 +158,8 @@ fn jacobian(
     Some(jac)
 }
 
-/// Iterations over which [`still_descending`] measures the descent.
+/// Iterations over which a fit's descent is measured to decide whether it goes on past its
+/// iteration count ([`minimise`]).
 pub const DESCENT_WINDOW: usize = 5;
 
 /// Smallest fall of the chi-square per iteration, in units of the mismatch factor, that keeps

@@ -19,24 +19,30 @@ pub const EVAL_STEP: f64 = 0.001;
 /// The model's steady-state prediction for one record.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Prediction {
+    /// First harmonic of each output `[zmp_x, zmp_y]` over the input's first harmonic.
     pub g: [Complex64; 2],
     /// Third harmonic of each output over the input's amplitude, for an input of phase zero
     /// (see [`Observation::third`]); zero for a linear model.
     pub g3: [Complex64; 2],
+    /// Linear trend of each output over the window, m/s (compared with the record's).
     pub slope: [f64; 2],
 }
 
 /// Squared error and squared noise floor of one record (already normalised).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RecordScore {
+    /// Squared prediction error, summed over both outputs.
     pub error2: f64,
+    /// Squared noise floor: the error noise alone would produce.
     pub floor2: f64,
 }
 
 impl RecordScore {
+    /// The record's error (root of `error2`).
     pub fn error(&self) -> f64 {
         self.error2.sqrt()
     }
+    /// The record's noise floor (root of `floor2`).
     pub fn floor(&self) -> f64 {
         self.floor2.sqrt()
     }

@@ -17,15 +17,19 @@ use zmp_models::Axis;
 /// The steady-state summary of one record.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Observation {
+    /// Position of the record in the campaign.
     pub index: usize,
+    /// The axis the reference sine drives.
     pub excited: Axis,
     /// Excitation frequency, rad/s.
     pub omega: f64,
+    /// Operating point `[x, y]` the sine is centred on, m.
     pub operating_point: [f64; 2],
     /// Reference amplitude the campaign commands, m (the describing functions' argument).
     pub nominal_amplitude: f64,
-    /// Window used, s.
+    /// Start of the steady-state window analysed, s.
     pub t0: f64,
+    /// End of that window, s.
     pub t1: f64,
     /// Input first-harmonic phasor (sin-referenced), m.
     pub u1: Complex64,
@@ -42,8 +46,9 @@ pub struct Observation {
     /// it a third harmonic would test an extrapolation of the fitted low-pass, not the
     /// distortion). Set over the campaign by [`mark_third_band`].
     pub third_band: bool,
-    /// Linear trend of each output, m/s, and its variance.
+    /// Linear trend of each output, m/s.
     pub slope: [f64; 2],
+    /// Variance of each `slope`, (m/s)².
     pub slope_var: [f64; 2],
     /// Residual noise standard deviation of each output, m.
     pub noise_std: [f64; 2],
@@ -83,6 +88,7 @@ impl Observation {
         self.u1.norm()
     }
 
+    /// Length of the analysed window, s.
     pub fn duration(&self) -> f64 {
         self.t1 - self.t0
     }

@@ -37,12 +37,25 @@ pub const EXPLAINED_RATIO: f64 = 1.5;
 /// accuracy and the catalogue's laws being approximations of a robot's physics.
 pub const EXPLAINED_CHI2_PER_COMPONENT: f64 = 5.0;
 
+/// Why a diagnosis could not run, naming the input at fault.
 #[derive(Debug, thiserror::Error)]
 pub enum DiagnoseError {
+    /// The campaign cannot be diagnosed (no usable record, no noise estimate, ...).
     #[error("{campaign}: {message}")]
-    Campaign { campaign: String, message: String },
+    Campaign {
+        /// The campaign's name as given.
+        campaign: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// The model does not describe the campaign or cannot be evaluated or fitted.
     #[error("{model}: {message}")]
-    Model { model: String, message: String },
+    Model {
+        /// The model's name as given.
+        model: String,
+        /// What is wrong with it.
+        message: String,
+    },
 }
 
 /// Options of a diagnosis.
@@ -50,7 +63,9 @@ pub enum DiagnoseError {
 pub struct DiagnoseOptions {
     /// Shown in the report as given.
     pub campaign_path: String,
+    /// The model's name, shown in the report and errors as given.
     pub model_path: String,
+    /// Worker threads for the fits and predictions.
     pub threads: usize,
     /// Refuse a model off by 10x or more on a diagonal channel (another robot, units, swapped
     /// axes). Off only where the model was just identified from this very campaign (the loop).
@@ -76,17 +91,25 @@ impl Default for DiagnoseOptions {
 /// The whole diagnosis.
 #[derive(Debug, Clone)]
 pub struct Diagnosis {
+    /// The campaign's name as given.
     pub campaign: String,
+    /// The model's name as given.
     pub model: String,
+    /// How many records the diagnosis compared.
     pub records: usize,
+    /// Records left out: their index and why (no steady state, ...).
     pub skipped: Vec<(usize, String)>,
+    /// The campaign's noise floor: the error a perfect model would still show.
     pub noise_floor: f64,
+    /// The model's error as given, before any refit.
     pub baseline_error: f64,
     /// Held-out error of the model's own structure with every parameter refitted.
     pub refit_error: f64,
+    /// What the search concluded: no effect missing, effects found, or an undecided set.
     pub verdict: Verdict,
     /// Whether the final model explains the data ([`explains`]).
     pub explained: bool,
+    /// The report's findings, in the order it prints them.
     pub findings: Vec<Finding>,
     /// Effects of the best structure in the order of its chain, and the held-out error after
     /// each.
@@ -100,20 +123,25 @@ pub struct Diagnosis {
     pub alternatives: Vec<Alternative>,
     /// The model's own structure refitted on every record.
     pub refit: Option<Fit>,
+    /// The final model's error on every record (the diagnosis measure).
     pub final_error: f64,
     /// Cells of the starting model, worst first.
     pub cells: Vec<Cell>,
     /// `(channel, error, floor)` of the starting model.
     pub channels: Vec<(String, f64, f64)>,
+    /// The records compared, as steady-state observations.
     pub observations: Vec<Observation>,
+    /// The starting model's prediction of each observation.
     pub base_predictions: Vec<Prediction>,
+    /// The final model's prediction of each observation.
     pub final_predictions: Vec<Prediction>,
     /// Every single candidate, scored.
     pub tried: Vec<Tried>,
     /// What the final model leaves, in words (empty when it explains the data).
     pub residual: Vec<ResidualFeature>,
-    /// The criterion's threshold (a standard normal deviate) and the structures compared.
+    /// The criterion's threshold, a standard normal deviate.
     pub z_crit: f64,
+    /// How many structures the search compared.
     pub compared: usize,
     /// Whether the time limit passed before the search ended.
     pub time_limit_reached: bool,

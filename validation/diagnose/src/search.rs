@@ -40,25 +40,30 @@ pub const MAX_SET: usize = 3;
 /// A scored structure.
 #[derive(Debug, Clone)]
 pub struct Node {
+    /// The structure scored.
     pub structure: Structure,
     /// Fitted on each fold's records (`criterion::split`).
     pub folds: [Fit; 2],
+    /// Its records scored by the fold fits not fitted on them.
     pub held: HeldOut,
 }
 
 /// The search's result.
 #[derive(Debug, Clone)]
 pub struct Search {
+    /// Every structure scored, by structure.
     pub nodes: BTreeMap<Structure, Node>,
     /// The threshold of its comparisons (`criterion::threshold` over the structures it
-    /// planned to compare) and that count.
+    /// planned to compare).
     pub z_crit: f64,
+    /// How many structures it planned to compare.
     pub compared: usize,
     /// The mismatch factor of its comparisons: the best-predicting structure's held-out
     /// chi-square per component, at least 1.
     pub mismatch: f64,
-    /// The admissible structures, and the best of them.
+    /// The admissible structures.
     pub admissible: Vec<Structure>,
+    /// The best admissible structure.
     pub best: Structure,
     /// What the data cannot decide between (the best first; one member when they can).
     pub set: Vec<Structure>,
@@ -67,6 +72,7 @@ pub struct Search {
 }
 
 impl Search {
+    /// The scored node of `s` (panics when `s` was not scored).
     pub fn node(&self, s: &Structure) -> &Node {
         &self.nodes[s]
     }

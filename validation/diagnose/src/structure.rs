@@ -43,12 +43,16 @@ impl Law {
 /// every other kind sits on every excited axis with its own parameters, absent at zero).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct Candidate {
+    /// The catalogue kind of the effect.
     pub kind: EffectKind,
+    /// The law it follows (where in the loop it acts).
     pub law: Law,
+    /// The plane of a structural mode; `None` for kinds on every excited axis.
     pub plane: Option<Axis>,
 }
 
 impl Candidate {
+    /// A candidate on every excited axis.
     pub const fn new(kind: EffectKind, law: Law) -> Candidate {
         Candidate {
             kind,
@@ -57,6 +61,7 @@ impl Candidate {
         }
     }
 
+    /// A candidate on one plane (a structural mode).
     pub const fn on(kind: EffectKind, law: Law, plane: Axis) -> Candidate {
         Candidate {
             kind,
@@ -101,18 +106,22 @@ impl fmt::Display for Candidate {
 pub struct Structure(Vec<Candidate>);
 
 impl Structure {
+    /// The identified model's own structure: no candidate added.
     pub fn root() -> Structure {
         Structure(Vec::new())
     }
 
+    /// Its candidates, sorted.
     pub fn effects(&self) -> &[Candidate] {
         &self.0
     }
 
+    /// How many candidates it adds to the root.
     pub fn len(&self) -> usize {
         self.0.len()
     }
 
+    /// Whether it is the root.
     pub fn is_empty(&self) -> bool {
         self.0.is_empty()
     }
@@ -130,6 +139,7 @@ impl Structure {
         Structure(self.0.iter().filter(|x| *x != c).copied().collect())
     }
 
+    /// Whether `c` is one of its candidates.
     pub fn contains(&self, c: &Candidate) -> bool {
         self.0.contains(c)
     }

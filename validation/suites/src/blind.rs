@@ -31,11 +31,13 @@ pub const EFFECTS: [&str; 9] = [
 /// One blind draw.
 #[derive(Debug, Clone)]
 pub struct Draw {
+    /// The seed that drew the effects, the robot and the noise.
     pub seed: u64,
     /// Hidden effects (empty: clean data).
     pub effects: Vec<String>,
     /// The robot that made the data.
     pub truth: ModelSpec,
+    /// The campaign simulated on the robot.
     pub design: ExperimentDesign,
     /// Whether the model handed to the diagnosis is identified without coupling terms (the
     /// user's structure names none): only for a hidden `cross_coupling`.
@@ -260,11 +262,15 @@ pub fn suite(first_seed: u64, per_effect: usize, pairs: usize, clean: usize) -> 
 /// What the diagnosis made of one draw.
 #[derive(Debug, Clone)]
 pub struct Outcome {
+    /// The draw diagnosed.
     pub draw: Draw,
+    /// The diagnosis's verdict by name.
     pub verdict: String,
     /// Effects selected, in order.
     pub selected: Vec<String>,
+    /// The identified model's error on the campaign.
     pub baseline_error: f64,
+    /// The campaign's noise floor.
     pub noise_floor: f64,
     /// Error (all records) after adding the first hidden effect to the identified model with
     /// `augment`, if the verdict named it.

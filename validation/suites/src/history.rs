@@ -40,13 +40,19 @@ pub struct RangeRow {
     pub date: String,
     /// The commit whose code ran it (empty when not recorded).
     pub code: String,
+    /// Draws with a lone catalogue effect hidden: named first.
     pub singles: Count,
     /// Effects the seed's structure carries (saturation, pendulum-form coupling).
     pub carried: Count,
+    /// Draws with two catalogue effects hidden: both added.
     pub pairs: Count,
+    /// Draws with three catalogue effects hidden: all three added.
     pub triples: Count,
+    /// Draws without a hidden effect: no false effect added.
     pub clean: Count,
+    /// Draws with an effect outside the catalogue: ended `unexplained`.
     pub outside: Count,
+    /// In-catalogue draws explained within 2x their noise floor after the loop.
     pub closed: Count,
     /// In-catalogue draws with a false effect (a count of failures, not of successes).
     pub false_effects: Count,
@@ -61,6 +67,7 @@ pub struct RangeRow {
     pub after_design: Count,
     /// Wall time of the run, minutes.
     pub minutes: Option<f64>,
+    /// Free text: why a range was spent without a table, what changed (commas as `;`).
     pub note: String,
 }
 

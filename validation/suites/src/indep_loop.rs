@@ -85,7 +85,9 @@ pub fn assert_modes_within(r: &LoopResult, robot: &Robot, tol: [f64; 2], seed: u
 /// A draw of the independent simulator written as a campaign and read back.
 #[allow(dead_code)]
 pub struct Drawn {
+    /// The drawn robot.
     pub robot: Robot,
+    /// Its campaign as read back from the files.
     pub campaign: Campaign,
     /// Holds the campaign's files (`campaign/` inside it) while it lives.
     pub dir: tempfile::TempDir,

@@ -37,9 +37,13 @@ pub const RESOLUTION_STEPS: f64 = 3.0;
 /// How records are timed: a transient, then whole periods.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RecordTiming {
+    /// Sample rate of the records, Hz.
     pub sample_rate_hz: f64,
+    /// Transient before the steady state is analysed, s.
     pub transient_s: f64,
+    /// Fewest whole steady periods a record holds.
     pub periods: u32,
+    /// Shortest steady state a record holds, s (slow sines still get `periods`).
     pub min_steady_s: f64,
     /// Whether the values were read back from a campaign timed by this rule (else they are the
     /// identification's windows: see [`RecordTiming::of`]).
@@ -186,12 +190,18 @@ pub enum CapSource {
 /// The limits the candidates respect, as used (printed with the design).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Limits {
+    /// Lowest candidate frequency: the campaign's lowest, rad/s.
     pub omega_min: f64,
+    /// Highest candidate frequency, rad/s: up to twice the campaign's highest, below the
+    /// slowest rival's servo `omega_n`.
     pub omega_max: f64,
     /// The slowest rival's tracking low-pass `omega_n`, rad/s.
     pub servo_omega_n: f64,
+    /// Candidate frequencies, rad/s: log-spaced at the campaign's density per decade.
     pub frequencies: Vec<f64>,
+    /// Candidate reference amplitudes, m: a log grid around the campaign's and its own.
     pub amplitudes: Vec<f64>,
+    /// Candidate operating points `[x, y]`, m: those of the campaign's records.
     pub operating_points: Vec<[f64; 2]>,
     /// Per output `[lo, hi]`, m: the ZMP range the campaign's records reached.
     pub zmp_range: [[f64; 2]; 2],
@@ -206,9 +216,13 @@ pub struct Limits {
 /// A record the design may propose.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Candidate {
+    /// The axis the reference sine drives.
     pub excited: Axis,
+    /// Excitation frequency, rad/s.
     pub omega: f64,
+    /// Reference amplitude, m.
     pub amplitude: f64,
+    /// Operating point `[x, y]`, m.
     pub operating_point: [f64; 2],
 }
 

@@ -27,6 +27,7 @@ pub struct NoiseModel {
 /// Why a campaign gives no noise model: the output (0: `zmp_x`, 1: `zmp_y`) that has none.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct NoNoise {
+    /// Index of the output without a noise estimate.
     pub output: usize,
 }
 

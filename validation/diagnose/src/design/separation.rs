@@ -81,10 +81,13 @@ pub fn candidate_observation(
 /// One ordered pair: `truth`'s predictions as the data, `rival` refitted to them.
 #[derive(Debug, Clone)]
 pub struct Pair {
+    /// Index of the model whose predictions stand in for the data.
     pub truth: usize,
+    /// Index of the model refitted to them.
     pub rival: usize,
-    /// The rival as refitted last, and its free parameters at their fitted values.
+    /// The rival as refitted last.
     pub spec: ModelSpec,
+    /// The rival's free parameters at their fitted values.
     pub frees: Vec<Free>,
     /// Chi-square of the refit on the campaign alone, before any record was added.
     pub campaign: f64,
@@ -199,7 +202,7 @@ fn at_truth(spec: &ModelSpec, truth: &ModelSpec, obs: &[&Observation]) -> ModelS
 
 /// A fresh pair: the rival with every parameter the diagnosis fits free, refitted to the
 /// truth's campaign from its own values and from the truth's where they share a parameter
-/// ([`at_truth`]); the better fit.
+/// (same effect, binding and name); the better fit.
 pub fn start(
     truth: usize,
     rival: usize,

@@ -191,14 +191,21 @@ pub fn physical(spec: &ModelSpec) -> bool {
 /// Data ranges the profiles scale their starting values and bounds from.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DataRange {
+    /// Lowest excitation frequency of the records, rad/s.
     pub omega_min: f64,
+    /// Highest excitation frequency of the records, rad/s.
     pub omega_max: f64,
+    /// Smallest measured input amplitude, m.
     pub amplitude_min: f64,
+    /// Largest measured input amplitude, m.
     pub amplitude_max: f64,
+    /// Spread of the operating points along `x` and `y`, m.
     pub op_span: [f64; 2],
+    /// Whether any record excites `x` and `y` (indexed by `Axis::index`).
     pub axes_excited: [bool; 2],
     /// The distinct excitation frequencies, ascending.
     pub omegas: [f64; 16],
+    /// How many of `omegas` are used (at most 16, spread over the band).
     pub n_omegas: usize,
 }
 
@@ -216,6 +223,7 @@ impl DataRange {
         }
     }
 
+    /// The range the records `obs` cover.
     pub fn of(obs: &[&Observation]) -> DataRange {
         let mut r = DataRange {
             omega_min: f64::INFINITY,

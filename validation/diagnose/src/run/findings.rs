@@ -56,20 +56,29 @@ impl Serialize for Subject {
 /// One finding.
 #[derive(Debug, Clone, Serialize)]
 pub struct Finding {
+    /// What the finding is about: an effect, the refit, or what remains unexplained.
     pub effect: Subject,
     /// The effect's law (`on_command`, `in_servo`, ...) and plane, when it has them.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub law: Option<&'static str>,
+    /// The plane (`x`, `y`) an effect with a plane acts in.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub plane: Option<&'static str>,
+    /// Output channels the effect changed (for the refit and the rest: every channel).
     pub channels: Vec<String>,
-    /// Fitted parameters of the effect, dotted names, and their standard errors.
+    /// Fitted parameters of the effect by dotted name.
     pub parameters: BTreeMap<String, f64>,
+    /// Standard error of each of `parameters`, same names.
     pub std_errors: BTreeMap<String, f64>,
+    /// Error of the structure without the effect (the starting model's for the refit).
     pub error_before: f64,
+    /// Error of the structure with it.
     pub error_after: f64,
+    /// Whether both errors are held-out (false for what remains: its errors are in-sample).
     pub held_out: bool,
+    /// Whether it passed the criterion at the diagnosis's level (every reported finding does).
     pub significant: bool,
+    /// The evidence in words: what the records show and the criterion's numbers.
     pub evidence: String,
     /// The criterion's statistic against the structure without it (`criterion::compare`).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -86,14 +95,19 @@ pub struct Alternative {
     pub effects: Vec<&'static str>,
     /// The effects with their laws and planes in words.
     pub structure: String,
+    /// Fitted parameters of its effects by dotted name.
     pub parameters: BTreeMap<String, f64>,
+    /// Standard error of each of `parameters`, same names.
     pub std_errors: BTreeMap<String, f64>,
+    /// Its held-out error (the diagnosis measure).
     pub held_out_error: f64,
+    /// Its held-out chi-square, the score the criterion compares.
     pub held_out_chi2: f64,
     /// The criterion's statistic of the best against it (0 for the best).
     pub z_from_best: f64,
     /// What separates it from the best (the best: from the second).
     pub distinguished: Option<Separation>,
+    /// The structure itself, for the report and the loop.
     #[serde(skip)]
     pub typed: Structure,
     /// Fitted on every record.
@@ -127,9 +141,13 @@ impl Alternative {
 /// A single candidate as the search scored it.
 #[derive(Debug, Clone, Serialize)]
 pub struct Tried {
+    /// The candidate effect's catalogue name.
     pub effect: &'static str,
+    /// The candidate with its law and plane in words.
     pub structure: String,
+    /// Held-out error of the model with this candidate alone.
     pub held_out_error: f64,
+    /// Its held-out chi-square.
     pub held_out_chi2: f64,
     /// The criterion's statistic against the model's own structure refitted.
     pub z: f64,

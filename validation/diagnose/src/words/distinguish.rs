@@ -16,14 +16,18 @@ pub struct Separation {
     /// Over the campaign's own records: the root of the summed squared difference of the
     /// first harmonics in units of each record's noise.
     pub campaign_sigma: f64,
-    /// The largest difference of one record on the grid, in its noise, and where.
+    /// The largest difference of one record on the grid, in its noise.
     pub max_sigma: f64,
+    /// Frequency of that record, rad/s.
     pub omega: f64,
+    /// Its reference amplitude, m.
     pub amplitude_m: f64,
+    /// The axis it excites.
     pub axis: Axis,
     /// The lowest grid frequency from which on one record differs by 3 noise standard
     /// deviations or more (on the axis and amplitude of the largest), if any.
     pub from_omega: Option<f64>,
+    /// The separation in one sentence, for the report.
     pub words: String,
 }
 

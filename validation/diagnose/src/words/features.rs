@@ -74,6 +74,7 @@ pub fn phase_words(slope: f64, r2: f64) -> &'static str {
     }
 }
 
+/// The median of `v` (the upper middle value for an even count); NaN when empty.
 pub fn median(mut v: Vec<f64>) -> f64 {
     if v.is_empty() {
         return f64::NAN;
@@ -176,6 +177,7 @@ pub fn amplitude_contrast(
 /// errors.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AmplitudeDependence {
+    /// How many small/large amplitude pairs the means are over.
     pub pairs: usize,
     /// Weighted mean of `ln |q|` (negative: the small amplitude responds less).
     pub log_gain: f64,

@@ -1,7 +1,7 @@
 //! The diagnosis in words: the evidence for an effect (what the measurements show against the
 //! model without it, each profile's sentence over the shared features here), what tells two
 //! explanations apart ([`distinguish`]), and what an unexplained residual looks like
-//! ([`residual`]).
+//! ([`describe_residual`]).
 
 use crate::measure::Prediction;
 use crate::observe::Observation;
@@ -22,6 +22,7 @@ pub use residual::{describe_residual, ResidualFeature};
 
 /// What an evidence sentence is computed from.
 pub struct Evidence<'a> {
+    /// The records the sentence describes.
     pub obs: &'a [&'a Observation],
     /// The fitted model without the effect (every other parameter as fitted with it).
     pub base_spec: &'a ModelSpec,

@@ -18,6 +18,7 @@ pub struct ResidualFeature {
     pub feature: &'static str,
     /// How far beyond the noise: a standard normal deviate (or its chi-square equivalent).
     pub z: f64,
+    /// The feature in words, for the report.
     pub words: String,
 }
 

@@ -26,12 +26,14 @@ pub struct AfterDesign {
     pub predicted_sigma: f64,
     /// The second loop's effects, in order.
     pub found: Vec<String>,
+    /// Whether the second loop's last model explains the data.
     pub explained: bool,
     /// When the second loop ended `ambiguous` again: its set.
     #[serde(default)]
     pub ambiguous_set: Option<Vec<Vec<String>>>,
     /// The design's or the second loop's error, when one stopped the draw.
     pub error: Option<String>,
+    /// Whether the second loop reached its time limit (it is scored on what it reached).
     pub time_limit_reached: bool,
 }
 
@@ -79,9 +81,11 @@ pub fn rivals(r: &LoopResult) -> Vec<Rival> {
 
 /// A drawn robot and the campaign the independent simulator wrote of it.
 pub struct DrawnCampaign<'a> {
+    /// The drawn robot the designed records are simulated on.
     pub robot: &'a Robot,
     /// The campaign's design (its noise seed).
     pub design: &'a Design,
+    /// The campaign as read back from its folder.
     pub campaign: &'a Campaign,
     /// Its folder (the designed records are appended after its records).
     pub dir: &'a Path,

@@ -29,6 +29,7 @@ pub struct Scores {
     pub words: (usize, usize),
     /// In-catalogue draws explained within 2x the floor after the loop / draws.
     pub closed: (usize, usize),
+    /// The largest final error over the floor among the in-catalogue draws that ended explained.
     pub worst_closed_ratio: f64,
     /// In-catalogue draws with a false effect.
     pub false_alarms: (usize, usize),

@@ -11,6 +11,72 @@ use zmp_files::sections::check_page as doc_section;
 /// The docs page of the twin's findings.
 const PAGE: &str = "docs/src/twin-silo2.md";
 
+/// The paper model's step response, simulated as the README's table does, and its first
+/// reach time without the pendulum's `b` (the staircase's acceleration no longer reaches the
+/// ZMP).
+fn paper_model_step(
+    seed: zmp_models::controller::CascadeParams,
+) -> (zmp_models::closed_loop::StepMetrics, f64) {
+    use zmp_models::closed_loop::{run, StepExperiment};
+    use zmp_models::controller::CascadeController;
+    let paper_spec = zmp_models::ModelSpec::parse(
+        include_str!("../../../../../models/params/silo2-paper.toml"),
+        "silo2-paper.toml",
+    )
+    .unwrap();
+    let exp = StepExperiment::silo2();
+    let mut plant = zmp_models::Plant::new(&paper_spec, zmp_models::DEFAULT_STEP).unwrap();
+    let mut c = CascadeController::new(seed, exp.controller_period);
+    let paper = run(&mut plant, &mut c, &exp).metrics(0, &exp);
+    // The same without the pendulum's b (the staircase's acceleration no longer reaches the ZMP).
+    let mut flat = paper_spec.clone();
+    let mut pendulum = flat.pendulum().expect("the paper model's pendulum");
+    pendulum.b = [[0.0; 2]; 2];
+    flat.set_pendulum(&pendulum);
+    let mut plant = zmp_models::Plant::new(&flat, zmp_models::DEFAULT_STEP).unwrap();
+    let mut c = CascadeController::new(seed, exp.controller_period);
+    let flat_reach = run(&mut plant, &mut c, &exp).metrics(0, &exp).reach_time;
+    (paper, flat_reach)
+}
+
+/// The twin's closed loop on `exp` with a noise-free sensor (no force noise, quantisation or
+/// delay), and its metrics on the true ZMP.
+fn quiet_twin_step(
+    t: &super::super::Silo2,
+    p: &super::super::props::MassProperties,
+    exp: &zmp_models::closed_loop::StepExperiment,
+) -> super::closed_loop::Metrics {
+    use super::closed_loop::{run_twin, Metrics};
+    use crate::zmp::ZmpSensorSpec;
+    let quiet = ZmpSensorSpec {
+        force_noise_std: 0.0,
+        quantisation: 0.0,
+        delay: 0.0,
+        seed: 0,
+    };
+    let run = run_twin(t, p, exp, quiet, &[], &mut |_, _| Ok(())).unwrap();
+    Metrics::of(&run.true_trace(), exp)
+}
+
+/// One row of the loop-time table: the dominant poles, damping and predicted first reach of
+/// the cascade `ctrl` on a plant of static gain `lever`, beside what the run `how` measured.
+fn loop_time_row(
+    ctrl: &zmp_models::controller::CascadeParams,
+    what: &str,
+    lever: f64,
+    measured: f64,
+    settle: f64,
+    how: &str,
+) -> String {
+    let (re, im) = ctrl.dominant_poles(lever);
+    format!(
+        "| {what} | {lever:.4} | {re:.3} ± {im:.4}j | {:.2} | {:.1} s | {measured:.1} s \
+         ({how}) | {settle:.1} s |\n",
+        -re / re.hypot(im),
+        ctrl.first_reach_time(lever)
+    )
+}
+
 /// Why the twin's loop takes 52 s where the seed's takes 20 s. The cascade on a plant seen at
 /// its static gain (`lever` m of ZMP per radian of trunk) has the dominant poles
 /// `-K2/2 +- j sqrt(K2 kappa - K2^2/4)`, `kappa = e_s K1 lever`
@@ -22,10 +88,9 @@ const PAGE: &str = "docs/src/twin-silo2.md";
 /// to `cos(theta)` of itself at the reference).
 #[test]
 fn the_loops_reach_time_follows_from_its_dominant_pole() {
-    use super::closed_loop::{controller_params, run_twin, seed_zmp_per_radian, Metrics};
-    use crate::zmp::ZmpSensorSpec;
-    use zmp_models::closed_loop::{run, StepExperiment};
-    use zmp_models::controller::{CascadeController, CascadeParams};
+    use super::closed_loop::{controller_params, seed_zmp_per_radian};
+    use zmp_models::closed_loop::StepExperiment;
+    use zmp_models::controller::CascadeParams;
     let (_, s) = short_run();
     let t = twin();
     let p = mass_properties(&t).unwrap();
@@ -45,24 +110,8 @@ fn the_loops_reach_time_follows_from_its_dominant_pole() {
     let lever_tilted = lever_twin * theta_ref.cos();
 
     // The paper model, simulated as the README's table does.
-    let paper_spec = zmp_models::ModelSpec::parse(
-        include_str!("../../../../../models/params/silo2-paper.toml"),
-        "silo2-paper.toml",
-    )
-    .unwrap();
-    let exp = StepExperiment::silo2();
-    let mut plant = zmp_models::Plant::new(&paper_spec, zmp_models::DEFAULT_STEP).unwrap();
-    let mut c = CascadeController::new(seed, exp.controller_period);
-    let paper = run(&mut plant, &mut c, &exp).metrics(0, &exp);
+    let (paper, flat_reach) = paper_model_step(seed);
     let paper_reach = paper.reach_time;
-    // The same without the pendulum's b (the staircase's acceleration no longer reaches the ZMP).
-    let mut flat = paper_spec.clone();
-    let mut pendulum = flat.pendulum().expect("the paper model's pendulum");
-    pendulum.b = [[0.0; 2]; 2];
-    flat.set_pendulum(&pendulum);
-    let mut plant = zmp_models::Plant::new(&flat, zmp_models::DEFAULT_STEP).unwrap();
-    let mut c = CascadeController::new(seed, exp.controller_period);
-    let flat_reach = run(&mut plant, &mut c, &exp).metrics(0, &exp).reach_time;
     // The twin with a tenth of the step, noise-free, no load.
     let small = StepExperiment {
         zmp_ref_after: [e.zmp_ref_before[0] + 0.1 * step, e.zmp_ref_before[1]],
@@ -74,14 +123,7 @@ fn the_loops_reach_time_follows_from_its_dominant_pole() {
         load_position: e.load_position,
         controller_period: e.controller_period,
     };
-    let quiet = ZmpSensorSpec {
-        force_noise_std: 0.0,
-        quantisation: 0.0,
-        delay: 0.0,
-        seed: 0,
-    };
-    let run_small = run_twin(&t, &p, &small, quiet, &[], &mut |_, _| Ok(())).unwrap();
-    let small_m = Metrics::of(&run_small.true_trace(), &small);
+    let small_m = quiet_twin_step(&t, &p, &small);
     let small_reach = small_m.reach_time_s;
     let full_reach = s.closed_loop.comparison.twin.reach_time_s;
     let settle = [
@@ -96,10 +138,6 @@ fn the_loops_reach_time_follows_from_its_dominant_pole() {
     }
 
     let pred = |lever: f64| ctrl.first_reach_time(lever);
-    let zeta = |lever: f64| {
-        let (re, im) = ctrl.dominant_poles(lever);
-        -re / re.hypot(im)
-    };
     // Linear regime: within 10 % of the prediction. The paper model within 20 %: the 100 Hz
     // controller's staircase reaches the ZMP through the pendulum's -b s^2 (the servo passes
     // the steps' acceleration on) and damps the loop a little; b11 is 0.28 s^2 there, 0.12 on
@@ -119,34 +157,28 @@ fn the_loops_reach_time_follows_from_its_dominant_pole() {
         pred(lever_twin),
         pred(lever_tilted)
     );
-    let row = |what: &str, lever: f64, measured: f64, settle: f64, how: &str| {
-        let (re, im) = ctrl.dominant_poles(lever);
-        format!(
-            "| {what} | {lever:.4} | {re:.3} ± {im:.4}j | {:.2} | {:.1} s | {measured:.1} s \
-             ({how}) | {settle:.1} s |\n",
-            zeta(lever),
-            pred(lever)
-        )
-    };
     let mut text = String::from(
         "| loop | lever (m/rad) | dominant poles (1/s) | zeta | first reach, predicted | \
          measured | 2 % settling, measured |\n| --- | --- | --- | --- | --- | --- | --- |\n",
     );
-    text += &row(
+    text += &loop_time_row(
+        &ctrl,
         "paper model",
         lever_paper,
         paper_reach,
         settle[0],
         "zmp_models::closed_loop",
     );
-    text += &row(
+    text += &loop_time_row(
+        &ctrl,
         "twin, a tenth of the step",
         lever_twin,
         small_reach,
         settle[1],
         &format!("{:.1} mm, MuJoCo", 100.0 * step),
     );
-    text += &row(
+    text += &loop_time_row(
+        &ctrl,
         &format!("twin, the whole step, at its {theta_ref:.2} rad"),
         lever_tilted,
         full_reach,
