@@ -1,7 +1,7 @@
 //! The full diagnosis of a 168-record campaign (the reference design: 3 operating points x 2
 //! amplitudes x 14 frequencies x 2 channels) against the model identified from it: every
-//! catalogued candidate fitted and scored on held-out records, forward selection. Two hidden
-//! robots: the demo's (40 ms servo latency + a drifting ZMP sensor: two rounds of selection)
+//! catalogued structure of the search fitted and scored on held-out records. Two hidden
+//! robots: the demo's (40 ms servo latency + a drifting ZMP sensor: two effects)
 //! and one with Coulomb friction (the costliest candidate family: simulated describing
 //! functions). The describing-function cache is cleared at the start of every diagnosis.
 
