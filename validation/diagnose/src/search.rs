@@ -281,14 +281,29 @@ pub(super) fn mismatch(nodes: &BTreeMap<Structure, Node>) -> f64 {
 }
 
 /// Whether every effect of `s` is significant: `s` significantly better than itself without
-/// it (a structure whose parent was not scored is not admissible). The root is.
+/// it (a structure whose parent was not scored is not admissible), and the effect determined
+/// by each fold's records ([`determined`]; intersection-union: both tests at the same
+/// level). The root is.
 pub fn admissible(nodes: &BTreeMap<Structure, Node>, s: &Structure, z_crit: f64, c: f64) -> bool {
     let Some(n) = nodes.get(s) else { return false };
     s.effects().iter().all(|e| {
         nodes
             .get(&s.without(e))
             .is_some_and(|p| compare(&n.held, &p.held, c).better(z_crit))
+            && n.folds.iter().all(|f| determined(f, e, z_crit))
     })
+}
+
+/// Whether the records `fit` was fitted on determine effect `c`: one of the parameters that
+/// carry it ([`Profile::strength`](crate::profiles::Profile::strength)) lies more than
+/// `z_crit` of its standard errors from zero (a Wald test). A held-out gain whose effect the
+/// fitted records leave undetermined (a cutoff of 1040 +- 2e5 rad/s) is a basin of the other
+/// parameters, not evidence of the effect.
+pub fn determined(fit: &Fit, c: &Candidate, z_crit: f64) -> bool {
+    profile(c.kind)
+        .strength(fit, c)
+        .iter()
+        .any(|(v, se)| v.abs() > z_crit * se)
 }
 
 /// The best admissible structure and those the data cannot separate from it (see the module
@@ -430,8 +445,9 @@ pub fn fit_all(
 mod tests {
     use super::*;
     use crate::criterion::{tests::normals, threshold};
+    use crate::fit::Free;
     use crate::structure::Law;
-    use zmp_models::EffectKind;
+    use zmp_models::{Binding, EffectKind};
 
     /// A node whose held-out residuals are `r` (one component per record).
     fn node(s: &Structure, r: Vec<f64>) -> Node {
@@ -440,10 +456,16 @@ mod tests {
             "silo2-paper.toml",
         )
         .unwrap();
+        // Each effect fitted at 1 +- 0.01: determined.
+        let frees: Vec<Free> = s
+            .effects()
+            .iter()
+            .map(|c| Free::new(c.kind, vec![Binding::Global], "value", 1.0, 0.0, 10.0))
+            .collect();
         let fit = Fit {
             spec,
-            frees: Vec::new(),
-            std_err: Vec::new(),
+            std_err: vec![0.01; frees.len()],
+            frees,
             cost: 0.0,
         };
         Node {
@@ -544,6 +566,32 @@ mod tests {
         assert!(adm.contains(&pair), "the pair beats both its parents");
         assert!(!compare(&nodes[&root].held, &nodes[&pair].held, c).better(z));
         assert_eq!(ambiguity_set(&nodes, &adm, z, c), vec![root]);
+    }
+
+    /// A delay that removes the misfit is admissible while its fits determine it (0.04 +-
+    /// 0.0004 s: 100 standard errors), and not where one fold's fit leaves it undetermined
+    /// (0.001 +- 0.01 s), however much it gains on held-out records.
+    #[test]
+    fn an_effect_the_records_do_not_determine_is_not_admissible() {
+        let delay = Candidate::new(EffectKind::TimeDelay, Law::Only);
+        let root = Structure::root();
+        let d = root.with(delay);
+        let noise = normals(108, 31);
+        let miss: Vec<f64> = (0..108)
+            .map(|k| if k % 13 == 0 { 6.0 } else { 0.0 })
+            .collect();
+        let mut nodes = BTreeMap::new();
+        nodes.insert(root.clone(), node(&root, plus(&noise, &miss, 1.0)));
+        nodes.insert(d.clone(), node(&d, noise));
+        let z = threshold(10);
+        let c = mismatch(&nodes);
+        for (value, se, expected) in [(0.04, 4e-4, true), (0.001, 0.01, false)] {
+            let fold = &mut nodes.get_mut(&d).unwrap().folds[1];
+            fold.frees[0].bounds.value = value;
+            fold.std_err[0] = se;
+            assert_eq!(determined(fold, &delay, z), expected, "{value} +- {se}");
+            assert_eq!(admissible(&nodes, &d, z, c), expected, "{value} +- {se}");
+        }
     }
 
     /// The admissible structures of `nodes`, best first.

@@ -35,6 +35,16 @@ impl Profile for CrossCoupling {
         &[Law::Coupling]
     }
 
+    /// The coupling terms alone (the pendulum's own terms are every structure's).
+    fn strength(&self, fit: &crate::fit::Fit, _c: &Candidate) -> Vec<(f64, f64)> {
+        fit.frees
+            .iter()
+            .zip(&fit.std_err)
+            .filter(|(f, _)| f.kind == EffectKind::Pendulum && TERMS.contains(&f.param))
+            .map(|(f, e)| (f.bounds.value, *e))
+            .collect()
+    }
+
     /// While the model leaves a coupling term at zero.
     fn addable(&self, spec: &ModelSpec, _c: &Candidate, _r: &DataRange) -> bool {
         !zero_terms(spec).is_empty()

@@ -4,7 +4,7 @@
 //! evidence sentence, and what it does to the response, for the words that tell two
 //! explanations apart). A new effect is one file here and one arm in [`profile`].
 
-use crate::fit::Free;
+use crate::fit::{Fit, Free};
 use crate::observe::Observation;
 use crate::structure::{Candidate, Law};
 use crate::words::Evidence;
@@ -91,6 +91,21 @@ pub trait Profile: Sync {
                 }
             }
         }
+    }
+
+    /// The fitted parameters that carry the effect in `fit`, each with its standard error:
+    /// the records determine the effect when one of them lies more than the criterion's z
+    /// standard errors from zero (a Wald test; a parameter whose absence lies at infinity, a
+    /// cutoff or a force limit, is tested the same way, as its reciprocal is to first
+    /// order). Default: every fitted parameter of the profile's model kinds (on its plane).
+    fn strength(&self, fit: &Fit, c: &Candidate) -> Vec<(f64, f64)> {
+        fit.frees
+            .iter()
+            .zip(&fit.std_err)
+            .filter(|(f, _)| self.model_kinds().contains(&f.kind))
+            .filter(|(f, _)| c.plane.is_none_or(|p| f.bindings.contains(&axis(p))))
+            .map(|(f, e)| (f.bounds.value, *e))
+            .collect()
     }
 
     /// What the effect does to the response, in a few words ("adds phase lag growing with
