@@ -179,15 +179,26 @@ fn still_descending(costs: &[f64], m: usize, n: usize) -> bool {
         && costs[done - DESCENT_WINDOW] - costs[done] > DESCENT_WINDOW as f64 * NEGLIGIBLE_CHI2 * c
 }
 
+/// The parameters, the cost and the Gauss-Newton variance of each parameter. A parameter the
+/// residuals do not move at all (a force limit no record reaches) has infinite variance and
+/// leaves the others' as they are (its row and column of `J^T J` are zero: the matrix is
+/// block-diagonal); the others' come from the inverse over them (all infinite where that
+/// is singular too).
 fn finish(theta: Vec<f64>, cost: f64, jac: &DMatrix<f64>, m: usize) -> (Vec<f64>, f64, Vec<f64>) {
     let n = theta.len();
     let jtj = jac.transpose() * jac;
     // Unweighted residuals: the residual variance scales the covariance.
     let chi2 = cost / (m as f64 - n as f64).max(1.0);
-    let var = match jtj.clone().try_inverse() {
-        Some(inv) => (0..n).map(|k| inv[(k, k)].abs() * chi2).collect(),
-        None => vec![f64::INFINITY; n],
-    };
+    let seen: Vec<usize> = (0..n)
+        .filter(|&k| jtj[(k, k)] > 0.0 && jtj[(k, k)].is_finite())
+        .collect();
+    let sub = DMatrix::from_fn(seen.len(), seen.len(), |i, j| jtj[(seen[i], seen[j])]);
+    let mut var = vec![f64::INFINITY; n];
+    if let Some(inv) = sub.try_inverse() {
+        for (i, &k) in seen.iter().enumerate() {
+            var[k] = inv[(i, i)].abs() * chi2;
+        }
+    }
     (theta, cost, var)
 }
 
@@ -222,6 +233,37 @@ mod tests {
         let (p, cost) = exponential(1.0, 0.5, 100, 0);
         assert!(cost < 1e-16, "{cost}");
         assert!((p[0] - 2.0).abs() < 1e-6 && (p[1] - 1.3).abs() < 1e-6);
+    }
+
+    /// A parameter the residuals ignore has infinite variance; the other keeps the variance
+    /// of its fit alone (`y = a t` on 10 samples: `1 / sum t^2` times the residual variance).
+    #[test]
+    fn an_ignored_parameter_leaves_the_others_determined() {
+        let t: Vec<f64> = (1..=10).map(f64::from).collect();
+        let noise = [0.1, -0.2, 0.05, 0.0, 0.3, -0.1, -0.05, 0.2, -0.3, 0.1];
+        let mut r = |p: &[f64]| {
+            Some(
+                t.iter()
+                    .zip(&noise)
+                    .map(|(t, e)| p[0] * t - (2.0 * t + e))
+                    .collect::<Vec<f64>>(),
+            )
+        };
+        let b = |value| Bounded {
+            value,
+            min: -10.0,
+            max: 10.0,
+        };
+        let (p, cost, var) = minimise(&[b(1.0), b(0.5)], 20, 0, &mut r, &|| false).unwrap();
+        let stt: f64 = t.iter().map(|t| t * t).sum();
+        let expected = cost / (10.0 - 2.0) / stt;
+        assert!((p[0] - 2.0).abs() < 0.05, "{p:?}");
+        assert!(
+            (var[0] / expected - 1.0).abs() < 1e-6,
+            "{} vs {expected}",
+            var[0]
+        );
+        assert!(var[1].is_infinite(), "{var:?}");
     }
 
     #[test]
