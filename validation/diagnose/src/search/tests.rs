@@ -1,0 +1,163 @@
+//! The search's admissibility and ambiguity set on synthetic held-out residuals.
+
+use super::*;
+use crate::criterion::{tests::normals, threshold};
+use crate::fit::Free;
+use crate::structure::Law;
+use zmp_models::{Binding, EffectKind};
+
+/// A node whose held-out residuals are `r` (one component per record).
+fn node(s: &Structure, r: Vec<f64>) -> Node {
+    let spec = ModelSpec::parse(
+        include_str!("../../../../models/params/silo2-paper.toml"),
+        "silo2-paper.toml",
+    )
+    .unwrap();
+    // Each effect fitted at 1 +- 0.01: determined.
+    let frees: Vec<Free> = s
+        .effects()
+        .iter()
+        .map(|c| Free::new(c.kind, vec![Binding::Global], "value", 1.0, 0.0, 10.0))
+        .collect();
+    let fit = Fit {
+        spec,
+        std_err: vec![0.01; frees.len()],
+        frees,
+        cost: 0.0,
+    };
+    Node {
+        structure: s.clone(),
+        folds: [fit.clone(), fit],
+        held: HeldOut {
+            chi2: r.iter().map(|x| x * x).sum(),
+            error: 0.0,
+            scores: Vec::new(),
+            chi2s: r.iter().map(|x| x * x).collect(),
+            residuals: r.into_iter().map(|x| vec![x]).collect(),
+        },
+    }
+}
+
+fn plus(a: &[f64], b: &[f64], k: f64) -> Vec<f64> {
+    a.iter().zip(b).map(|(x, y)| x + k * y).collect()
+}
+
+/// Two effects that each remove the same misfit (8 of 108 records off by 6 standard
+/// deviations) and part by a third of a standard deviation per record are not separated:
+/// the set names both, best first. An effect that removes nothing is not admissible;
+/// the pair of the two, which only adds noise to either, is not admissible either. With
+/// the two parting by 3 standard deviations on those 8 records, the better one is alone.
+#[test]
+fn the_set_holds_what_the_records_cannot_separate() {
+    let delay = Candidate::new(EffectKind::TimeDelay, Law::Only);
+    let lowpass = Candidate::new(EffectKind::SensorLowpass, Law::Only);
+    let drift = Candidate::new(EffectKind::SensorDrift, Law::Only);
+    let root = Structure::root();
+    let (d, l, dr, pair) = (
+        root.with(delay),
+        root.with(lowpass),
+        root.with(drift),
+        root.with(delay).with(lowpass),
+    );
+    let noise = normals(108, 11);
+    let miss: Vec<f64> = (0..108)
+        .map(|k| if k % 13 == 0 { 6.0 } else { 0.0 })
+        .collect();
+    let apart = normals(108, 12);
+    let set_of = |l_res: Vec<f64>| {
+        let mut nodes = BTreeMap::new();
+        for (s, r) in [
+            (&root, plus(&noise, &miss, 1.0)),
+            (&d, noise.clone()),
+            (&l, l_res.clone()),
+            (&dr, plus(&noise, &miss, 1.0)),
+            (&pair, plus(&noise, &apart, 0.5)),
+        ] {
+            nodes.insert(s.clone(), node(s, r));
+        }
+        let z = threshold(10);
+        let c = mismatch(&nodes);
+        let adm = adm_sorted(&nodes, z, c);
+        let set = ambiguity_set(&nodes, &adm, z, c);
+        (adm, set)
+    };
+    let (adm, set) = set_of(plus(&noise, &apart, 0.3));
+    assert!(adm.contains(&d) && adm.contains(&l) && adm.contains(&root));
+    assert!(!adm.contains(&dr), "an effect that removes nothing");
+    assert!(!adm.contains(&pair), "a pair that only adds noise");
+    assert_eq!(set.len(), 2, "{set:?}");
+    assert!(set.contains(&d) && set.contains(&l));
+    // The low-pass misses the 8 records by 3 standard deviations: the delay alone.
+    let (_, set) = set_of(plus(&noise, &miss, 0.5));
+    assert_eq!(set, vec![d.clone()]);
+}
+
+/// Two effects that each make the fit worse (8 records missed by 12 standard deviations
+/// instead of 6) and together only add noise to the identified model's own: the pair beats
+/// each of them, so it is admissible, and the identified model cannot be shown better than
+/// it (z about 2.6 against 3.09); but it is not better than the model inside it, so it is
+/// no alternative: the set is the identified model alone.
+#[test]
+fn a_structure_no_better_than_one_inside_it_is_no_alternative() {
+    let a = Candidate::new(EffectKind::TimeDelay, Law::Only);
+    let b = Candidate::new(EffectKind::SensorDrift, Law::Only);
+    let root = Structure::root();
+    let (sa, sb, pair) = (root.with(a), root.with(b), root.with(a).with(b));
+    let noise = normals(108, 21);
+    let miss: Vec<f64> = (0..108)
+        .map(|k| if k % 13 == 0 { 6.0 } else { 0.0 })
+        .collect();
+    let apart = normals(108, 22);
+    let mut nodes = BTreeMap::new();
+    for (s, r) in [
+        (&root, plus(&noise, &miss, 1.0)),
+        (&sa, plus(&noise, &miss, 2.0)),
+        (&sb, plus(&noise, &miss, 2.0)),
+        (&pair, plus(&plus(&noise, &miss, 1.0), &apart, 0.5)),
+    ] {
+        nodes.insert(s.clone(), node(s, r));
+    }
+    let z = threshold(10);
+    let c = mismatch(&nodes);
+    let adm = adm_sorted(&nodes, z, c);
+    assert!(adm.contains(&pair), "the pair beats both its parents");
+    assert!(!compare(&nodes[&root].held, &nodes[&pair].held, c).better(z));
+    assert_eq!(ambiguity_set(&nodes, &adm, z, c), vec![root]);
+}
+
+/// A delay that removes the misfit is admissible while its fits determine it (0.04 +-
+/// 0.0004 s: 100 standard errors), and not where one fold's fit leaves it undetermined
+/// (0.001 +- 0.01 s), however much it gains on held-out records.
+#[test]
+fn an_effect_the_records_do_not_determine_is_not_admissible() {
+    let delay = Candidate::new(EffectKind::TimeDelay, Law::Only);
+    let root = Structure::root();
+    let d = root.with(delay);
+    let noise = normals(108, 31);
+    let miss: Vec<f64> = (0..108)
+        .map(|k| if k % 13 == 0 { 6.0 } else { 0.0 })
+        .collect();
+    let mut nodes = BTreeMap::new();
+    nodes.insert(root.clone(), node(&root, plus(&noise, &miss, 1.0)));
+    nodes.insert(d.clone(), node(&d, noise));
+    let z = threshold(10);
+    let c = mismatch(&nodes);
+    for (value, se, expected) in [(0.04, 4e-4, true), (0.001, 0.01, false)] {
+        let fold = &mut nodes.get_mut(&d).unwrap().folds[1];
+        fold.frees[0].bounds.value = value;
+        fold.std_err[0] = se;
+        assert_eq!(determined(fold, &delay, z), expected, "{value} +- {se}");
+        assert_eq!(admissible(&nodes, &d, z, c), expected, "{value} +- {se}");
+    }
+}
+
+/// The admissible structures of `nodes`, best first.
+fn adm_sorted(nodes: &BTreeMap<Structure, Node>, z: f64, c: f64) -> Vec<Structure> {
+    let mut adm: Vec<Structure> = nodes
+        .keys()
+        .filter(|s| admissible(nodes, s, z, c))
+        .cloned()
+        .collect();
+    adm.sort_by(|a, b| nodes[a].held.chi2.total_cmp(&nodes[b].held.chi2));
+    adm
+}
