@@ -173,6 +173,23 @@ fn an_acceleration_saturation_is_named_with_its_limit() {
     );
 }
 
+/// A force limit of 0.58 m/s^2, the one window of the standard design where the 8 mm sines
+/// clip at two sweep frequencies (they demand 0.62 m/s^2 at 9.2 rad/s and 1.44 at 15) and the
+/// 3 mm ones at none (0.54 at most, 93 % of the limit): each of the two frequency folds then
+/// holds a clipped record and determines the limit, which a limit acting at the top frequency
+/// alone is not (the test above). Its limit within 10 %, for the reason above.
+#[test]
+fn an_acceleration_saturation_at_two_frequencies_is_named_with_its_limit() {
+    named(
+        "[acceleration_saturation]\nlimit = 0.58\n",
+        EffectKind::AccelerationSaturation,
+        Law::Only,
+        "limit",
+        0.58,
+        0.10,
+    );
+}
+
 /// A trunk mode at 8 rad/s with damping ratio 0.08 on the sagittal ZMP path (the whole path
 /// rings): inside the band, between the sweep's 5.7 and 9.2 rad/s, where it raises the gain
 /// to 2.0 and 2.6 with 13 and 151 degrees of lag. Its frequency within 3 %: a 3 % shift moves
