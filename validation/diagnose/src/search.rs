@@ -282,15 +282,18 @@ pub(super) fn mismatch(nodes: &BTreeMap<Structure, Node>) -> f64 {
 
 /// Whether every effect of `s` is significant: `s` significantly better than itself without
 /// it (a structure whose parent was not scored is not admissible), and the effect determined
-/// by each fold's records ([`determined`]; intersection-union: both tests at the same
-/// level). The root is.
+/// by the records ([`determined`] on a fold's fit: what part of the records determines, all
+/// of them determine at least as well, the information of independent records adding up; an
+/// effect only part of the band shows, a force limit reached at the top frequency alone, is
+/// determined by one fold only). Intersection-union: both tests at the same level. The root
+/// is admissible.
 pub fn admissible(nodes: &BTreeMap<Structure, Node>, s: &Structure, z_crit: f64, c: f64) -> bool {
     let Some(n) = nodes.get(s) else { return false };
     s.effects().iter().all(|e| {
         nodes
             .get(&s.without(e))
             .is_some_and(|p| compare(&n.held, &p.held, c).better(z_crit))
-            && n.folds.iter().all(|f| determined(f, e, z_crit))
+            && n.folds.iter().any(|f| determined(f, e, z_crit))
     })
 }
 
