@@ -213,7 +213,7 @@ pub fn fit_lm(
     })
 }
 
-/// The one multi-start policy: every start evaluated as it is, the [`KEEP`] best that can be fitted with their
+/// The one multi-start policy: every start evaluated as it is, the [`KEEP`] best with their
 /// own parameters fitted for [`ITERS_SHORT`] iterations, then every parameter of the best
 /// from there ([`ITERS_JOINT`]). `None` when no start can be fitted.
 pub fn fit_starts(starts: &[Start], obs: &[&Observation], r: &DataRange) -> Option<Fit> {
@@ -222,12 +222,10 @@ pub fn fit_starts(starts: &[Start], obs: &[&Observation], r: &DataRange) -> Opti
         .filter_map(|st| Some((cost_of(&st.0, obs)?, st)))
         .collect();
     ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // The KEEP nearest starts that can be fitted (a short fit that ends unphysical gives its
-    // place to the next start).
     let best = ranked
         .iter()
-        .filter_map(|(_, (s, own))| fit_lm(s, own, obs, ITERS_SHORT, 0))
         .take(KEEP)
+        .filter_map(|(_, (s, own))| fit_lm(s, own, obs, ITERS_SHORT, 0))
         .min_by(|a, b| a.cost.total_cmp(&b.cost))?;
     Some(joint(best, obs, r, DESCENT_FACTOR * ITERS_JOINT))
 }
