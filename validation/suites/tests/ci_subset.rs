@@ -104,7 +104,7 @@ fn ci_single_acceleration_saturation_carried() {
 }
 
 #[test]
-#[ignore = "known failure: the loop names sensor_lowpass and backlash and ends unexplained at 3.56x the floor (219 s wall, 78 s CPU, 2026-12-07): no structure with the mode is admissible"]
+#[ignore = "known failure: the loop names sensor_lowpass and backlash and ends unexplained at 3.56x the floor (67 s wall, 44 s CPU, 2026-12-07, at 85635be): no structure with the mode is admissible"]
 fn ci_single_structural_mode_named_first() {
     run_and_check(single("structural_mode"));
 }
@@ -132,13 +132,13 @@ fn ci_clean_without_false_effect() {
 }
 
 #[test]
-#[ignore = "long: 148 s wall, 51 s CPU on the loaded 2-core machine (2026-12-07); run by cargo xtask ci --long"]
+#[ignore = "long: 70 s wall, 45 s CPU beside CI on the 2-core machine (2026-12-07, at 85635be); run by cargo xtask ci --long"]
 fn ci_outside_unexplained() {
     run_and_check(|c| matches!(c.class, Class::Outside(_)));
 }
 
 #[test]
-#[ignore = "known failure: the loop names the play alone and explains the records at 1.1x the floor (95 s on one thread, 2026-12-07, after the Wald check and the standard-error fix); the 6-12 ms delay leaves no evidence on this campaign, so the loop does not end ambiguous and designs nothing: the truth is not named"]
+#[ignore = "long: 141 s wall, 91 s CPU beside CI on the 2-core machine (2026-12-07, at 85635be: both effects named, explained at 1.04x the floor); run by cargo xtask ci --long"]
 fn ci_delay_beside_play_named_alone_after_the_designed_experiment() {
     run_and_check(|c| c.scenario == "pair:time_delay,backlash");
 }
