@@ -1,4 +1,5 @@
-//! A small bounded Levenberg-Marquardt with a forward-difference Jacobian.
+//! A small bounded Levenberg-Marquardt: forward-difference Jacobians, Broyden's secant update
+//! between them.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -21,7 +22,8 @@ pub struct Bounded {
 /// with the best parameters so far: checked before each iteration and where `r` fails while
 /// the Jacobian is formed (`r` may fail because of the limit). Returns the best parameters,
 /// the final cost and the Gauss-Newton covariance diagonal `(J^T J)^{-1}` scaled by the
-/// residual variance (of the last complete iteration; infinite before the first).
+/// residual variance, from a forward-difference Jacobian at the parameters returned (infinite
+/// for a parameter the residuals do not move).
 pub fn minimise(
     theta0: &[Bounded],
     max_iter: usize,
