@@ -470,8 +470,8 @@ pub(crate) fn parameters_of(fit: &Fit, c: &Candidate) -> Vec<(String, f64, f64)>
         .collect()
 }
 
-/// The evidence sentence of `c` as fitted in `fit`.
-pub(crate) fn evidence_of(obs: &[&Observation], fit: &Fit, c: &Candidate) -> String {
+/// The evidence sentence of `c` as fitted in `fit`, with the criterion's threshold `z_crit`.
+pub(crate) fn evidence_of(obs: &[&Observation], fit: &Fit, c: &Candidate, z_crit: f64) -> String {
     let base_spec = without(fit, c);
     let base = predict(&base_spec, obs).unwrap_or_default();
     let params = parameters_of(fit, c);
@@ -485,6 +485,7 @@ pub(crate) fn evidence_of(obs: &[&Observation], fit: &Fit, c: &Candidate) -> Str
             base_spec: &base_spec,
             base: &base,
             params: &params,
+            z_crit,
         },
     )
 }

@@ -319,17 +319,16 @@ fn ambiguity_set(
     c: f64,
 ) -> Vec<Structure> {
     // Parsimony: a structure that does not predict significantly better than a smaller
-    // admissible structure inside it is no alternative to it (the test is not transitive: two
+    // admissible structure inside it (`Structure::holds`: fewer effects, or a law that holds
+    // another as a special case) is no alternative to it (the test is not transitive: two
     // effects can each pass against the structure without them and together not against the
     // identified model's own).
     let pool: Vec<&Structure> = admissible
         .iter()
         .filter(|s| {
-            !admissible.iter().any(|t| {
-                t.len() < s.len()
-                    && t.effects().iter().all(|c| s.contains(c))
-                    && !compare(&nodes[*s].held, &nodes[t].held, c).better(z_crit)
-            })
+            !admissible
+                .iter()
+                .any(|t| s.holds(t) && !compare(&nodes[*s].held, &nodes[t].held, c).better(z_crit))
         })
         .collect();
     let mut set: Vec<Structure> = Vec::new();

@@ -23,6 +23,9 @@ pub enum Law {
     OnZmpPath,
     /// The pendulum's coupling terms a model leaves at zero (`cross_coupling`).
     Coupling,
+    /// Each channel `G_ij` with slopes of its own (an operating-point dependence): the
+    /// common law is the case of equal slopes.
+    PerChannel,
 }
 
 impl Law {
@@ -34,7 +37,14 @@ impl Law {
             Law::InServo => "in_servo",
             Law::OnZmpPath => "on_zmp_path",
             Law::Coupling => "coupling",
+            Law::PerChannel => "per_channel",
         }
+    }
+
+    /// Whether this law holds `other` of the same kind as a special case (per-channel slopes
+    /// hold the common ones: every channel the same slope).
+    pub const fn generalizes(self, other: Law) -> bool {
+        matches!((self, other), (Law::PerChannel, Law::Only))
     }
 }
 
@@ -139,6 +149,19 @@ impl Structure {
         Structure(self.0.iter().filter(|x| *x != c).copied().collect())
     }
 
+    /// Whether `t` is a smaller structure inside this one: another structure whose every
+    /// effect is one of this one's, or one of this one's laws holds it as a special case (the
+    /// same kind and plane). What parsimony compares a structure with.
+    pub fn holds(&self, t: &Structure) -> bool {
+        t != self
+            && t.len() <= self.len()
+            && t.effects().iter().all(|c| {
+                self.0.iter().any(|s| {
+                    s == c || (s.kind == c.kind && s.plane == c.plane && s.law.generalizes(c.law))
+                })
+            })
+    }
+
     /// Whether `c` is one of its candidates.
     pub fn contains(&self, c: &Candidate) -> bool {
         self.0.contains(c)
@@ -225,6 +248,23 @@ impl fmt::Display for Verdict {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Per-channel slopes hold the common ones (and what the common ones are added to); the
+    /// common ones hold neither, and no structure holds itself.
+    #[test]
+    fn a_per_channel_law_holds_the_common_law() {
+        let op = EffectKind::OperatingPointDependence;
+        let common = Structure::root().with(Candidate::new(op, Law::Only));
+        let channel = Structure::root().with(Candidate::new(op, Law::PerChannel));
+        let delay = Candidate::new(EffectKind::TimeDelay, Law::Only);
+        assert!(channel.holds(&common));
+        assert!(channel.with(delay).holds(&common));
+        assert!(channel.with(delay).holds(&common.with(delay)));
+        assert!(channel.holds(&Structure::root()));
+        assert!(!common.holds(&channel));
+        assert!(!channel.holds(&channel));
+        assert!(!channel.holds(&common.with(delay)));
+    }
 
     #[test]
     fn a_structure_is_its_set_of_effects_whatever_the_order() {

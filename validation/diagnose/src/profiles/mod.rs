@@ -216,6 +216,9 @@ pub struct DataRange {
     pub amplitude_max: f64,
     /// Spread of the operating points along `x` and `y`, m.
     pub op_span: [f64; 2],
+    /// The unit direction of the line the operating points lie on, when they lie on one
+    /// (`words::op_line`); `None` when they span the plane or there is only one.
+    pub op_line: Option<[f64; 2]>,
     /// Whether any record excites `x` and `y` (indexed by `Axis::index`).
     pub axes_excited: [bool; 2],
     /// The distinct excitation frequencies, ascending.
@@ -246,6 +249,7 @@ impl DataRange {
             amplitude_min: f64::INFINITY,
             amplitude_max: 0.0,
             op_span: [0.0; 2],
+            op_line: crate::words::op_line(obs),
             axes_excited: [false; 2],
             omegas: [0.0; 16],
             n_omegas: 0,
@@ -379,6 +383,7 @@ pub(crate) fn test_range() -> DataRange {
         amplitude_min: 0.003,
         amplitude_max: 0.008,
         op_span: [0.06, 0.04],
+        op_line: Some([0.83205, 0.5547]),
         axes_excited: [true, true],
         omegas,
         n_omegas: 9,
@@ -425,9 +430,9 @@ mod tests {
         let cands = candidates(&spec, &r);
         let names: Vec<String> = cands.iter().map(|c| c.label()).collect();
         assert!(!names.iter().any(|n| n == "acceleration_saturation"));
-        // Delay, two plays, friction, four modes, low-pass, operating point, drift; the paper
-        // model has its coupling terms.
-        assert_eq!(cands.len(), 11, "{names:?}");
+        // Delay, two plays, friction, four modes, low-pass, operating point (common and per
+        // channel), drift; the paper model has its coupling terms.
+        assert_eq!(cands.len(), 12, "{names:?}");
         for c in &cands {
             let starts = profile(c.kind).starts(&spec, c, &r);
             assert!(!starts.is_empty(), "{c}");

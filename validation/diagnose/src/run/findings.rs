@@ -262,7 +262,7 @@ impl Context<'_> {
         let (p, n) = (self.search.node(parent), self.search.node(child));
         let cmp = self.search.compare(child, parent);
         let f = self.floor;
-        let mut evidence = evidence_of(self.obs, fit, &c);
+        let mut evidence = evidence_of(self.obs, fit, &c, self.search.z_crit);
         evidence.push_str(&format!(
             "; with it the held-out error falls from {:.1}x to {:.1}x the noise floor (held-out \
              chi-square {:.0} -> {:.0}, z = {:.1} against {:.2})",

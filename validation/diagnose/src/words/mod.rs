@@ -30,6 +30,9 @@ pub struct Evidence<'a> {
     pub base: &'a [Prediction],
     /// The effect's fitted parameters: dotted name, value, standard error.
     pub params: &'a [(String, f64, f64)],
+    /// The criterion's z threshold: a parameter further than this many standard errors from
+    /// zero is determined by the records (`search::determined`).
+    pub z_crit: f64,
 }
 
 impl Evidence<'_> {
