@@ -40,6 +40,12 @@ pub struct SuiteArgs {
     /// Print the merged result (or, for a shard, what it ran) as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Leave the draws that already have a result: a run stopped part-way goes on where it
+    /// stopped (the held-out range always does). It must be the build that began the job
+    /// (the same binary): results of another build are refused, as a merge refuses units of
+    /// two builds.
+    #[arg(long)]
+    pub resume: bool,
 }
 
 /// `cargo xtask merge`.
@@ -68,7 +74,7 @@ pub fn run_options(shard: Option<Shard>, unit: Option<String>, keep_done: bool) 
 pub fn suite(a: SuiteArgs) -> Result<()> {
     let (job, cases) = sharded::job(a.range, a.first_seed)?;
     let whole = a.shard.is_none() && a.unit.is_none();
-    let opts = run_options(a.shard, a.unit, a.range == Range::HeldOut);
+    let opts = run_options(a.shard, a.unit, a.resume || a.range == Range::HeldOut);
     let r = run_part(&a.out, &job, &opts, a.json, |spec| {
         let case = cases
             .iter()

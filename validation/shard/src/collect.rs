@@ -19,6 +19,8 @@ pub struct Done {
     pub outcome: Value,
     /// Wall time of the unit where it ran, s.
     pub wall_s: f64,
+    /// The build that ran it (`unit::build_id`; empty in older files).
+    pub build: String,
 }
 
 /// A unit whose result is an error (or whose file cannot be read).
@@ -105,6 +107,7 @@ pub fn collect(dir: &Path) -> Result<Collected> {
                     spec: spec.clone(),
                     outcome,
                     wall_s: r.wall_s,
+                    build: r.build,
                 }),
                 Status::Failed { error } => c.failed.push(Failed {
                     unit: spec.id.clone(),
@@ -115,7 +118,32 @@ pub fn collect(dir: &Path) -> Result<Collected> {
         }
     }
     c.unknown = files.into_keys().collect();
+    check_one_build(dir, &c.done)?;
     Ok(c)
+}
+
+/// Refuses units of more than one build (`unit::build_id`): their merged table would mix two
+/// versions of the code. Units without a recorded build (older files) are not counted.
+fn check_one_build(dir: &Path, done: &[Done]) -> Result<()> {
+    let mut builds: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+    for d in done.iter().filter(|d| !d.build.is_empty()) {
+        builds.entry(&d.build).or_default().push(&d.spec.id);
+    }
+    if builds.len() > 1 {
+        let list: Vec<String> = builds
+            .iter()
+            .map(|(b, ids)| format!("build {b}: {} units (first {})", ids.len(), ids[0]))
+            .collect();
+        bail!(
+            "{}: its units ran on {} builds ({}): a merged table would mix versions of the \
+             code. Re-run the units of all but one build with that build (`--unit ID`), or \
+             run the job again in a new folder",
+            dir.display(),
+            builds.len(),
+            list.join("; ")
+        );
+    }
+    Ok(())
 }
 
 /// The units' state, for a merge's `--json`.

@@ -218,15 +218,32 @@ pub fn run_units(
         None => shard_units(&job.units, opts.shard),
     };
     let mut out = ShardRun::default();
+    // Read before any unit runs: the executable may be rebuilt while they do.
+    let build = crate::unit::build_id();
     if opts.keep_done {
+        let mut other: Vec<String> = Vec::new();
         picked.retain(|&k| {
             let id = &job.units[k].id;
-            let done = read_unit(&unit_path(dir, id)).is_ok_and(|r| r.is_ok());
-            if done {
+            let r = read_unit(&unit_path(dir, id)).ok().filter(|r| r.is_ok());
+            if let Some(r) = &r {
+                if !r.build.is_empty() && r.build != build {
+                    other.push(format!("{id} (build {})", r.build));
+                }
                 out.kept.push(id.clone());
             }
-            !done
+            r.is_none()
         });
+        if !other.is_empty() {
+            bail!(
+                "{}: {} units have results from another build than this one ({build}): {}{}; \
+                 a resumed job runs on the build that began it (the same binary), or its table \
+                 would mix two versions of the code. Run that binary, or choose a new folder",
+                dir.display(),
+                other.len(),
+                other.iter().take(3).cloned().collect::<Vec<_>>().join(", "),
+                if other.len() > 3 { ", ..." } else { "" }
+            );
+        }
     }
     let total = picked.len();
     let finished = std::sync::atomic::AtomicUsize::new(0);
@@ -355,6 +372,52 @@ mod tests {
         };
         let e = run_units(&dir, &j, &bad, run).unwrap_err().to_string();
         assert!(e.contains("--unit nope: no such unit"), "{e}");
+    }
+
+    /// Units of another build: a resumed run refuses the folder, keeping its results; a
+    /// merge refuses to mix them with this build's; older files without a build count as none.
+    #[test]
+    fn one_job_holds_the_results_of_one_build() {
+        let d = tempfile::tempdir().unwrap();
+        let dir = d.path().join("job");
+        let j = job(3);
+        open_job(&dir, &j).unwrap();
+        let ok = |u: &UnitSpec| Ok(serde_json::json!({"id": u.id}));
+        run_units(&dir, &j, &opts(Shard::WHOLE), ok).unwrap();
+        let this = crate::unit::build_id();
+        assert_eq!(this.len(), 16, "{this:?}");
+        assert!(crate::collect(&dir).is_ok());
+        let mut u1 = read_unit(&unit_path(&dir, "u1")).unwrap();
+        assert_eq!(u1.build, this);
+        u1.build = "0123456789abcdef".into();
+        write_unit(&dir, &u1).unwrap();
+        let resume = RunOptions {
+            keep_done: true,
+            ..opts(Shard::WHOLE)
+        };
+        let e = run_units(&dir, &j, &resume, ok).unwrap_err().to_string();
+        assert!(e.contains("u1 (build 0123456789abcdef)"), "{e}");
+        assert!(e.contains(&format!("than this one ({this})")), "{e}");
+        assert_eq!(
+            read_unit(&unit_path(&dir, "u1")).unwrap(),
+            u1,
+            "kept as it was"
+        );
+        let e = format!("{:#}", crate::collect(&dir).unwrap_err());
+        assert!(e.contains("ran on 2 builds"), "{e}");
+        assert!(
+            e.contains("build 0123456789abcdef: 1 units (first u1)"),
+            "{e}"
+        );
+        // A file from before builds were recorded: neither refused nor counted.
+        u1.build.clear();
+        write_unit(&dir, &u1).unwrap();
+        let r = run_units(&dir, &j, &resume, ok).unwrap();
+        assert_eq!(r.kept.len(), 3);
+        assert!(crate::collect(&dir).is_ok());
+        let text = std::fs::read_to_string(unit_path(&dir, "u1")).unwrap();
+        let old: UnitResult = serde_json::from_str(&text.replace("\"build\": \"\",", "")).unwrap();
+        assert_eq!(old.build, "");
     }
 
     #[test]

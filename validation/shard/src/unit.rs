@@ -35,6 +35,9 @@ pub struct UnitResult {
     pub id: String,
     /// Wall time of the unit (s), measured where it ran.
     pub wall_s: f64,
+    /// The build that ran it ([`build_id`]); empty in files written before it was recorded.
+    #[serde(default)]
+    pub build: String,
     /// Its outcome or its error.
     #[serde(flatten)]
     pub status: Status,
@@ -47,6 +50,7 @@ impl UnitResult {
             format: UNIT_FORMAT.into(),
             id: id.into(),
             wall_s,
+            build: build_id().to_string(),
             status,
         }
     }
@@ -55,6 +59,22 @@ impl UnitResult {
     pub fn is_ok(&self) -> bool {
         matches!(self.status, Status::Ok { .. })
     }
+}
+
+/// The identity of the running build: the first 16 hex digits of the SHA-256 of the running
+/// executable, read once per process (empty when it cannot be read). Units of one job must
+/// come from one build, or a merged table would mix the results of two versions of the code:
+/// a resumed run refuses a folder whose results another build wrote, and a merge refuses units
+/// of more than one build. Shards on many machines run one binary (a shared path, as the Ray
+/// driver and the Slurm script do); two compilations of one commit are two builds.
+pub fn build_id() -> &'static str {
+    static ID: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    ID.get_or_init(|| {
+        std::env::current_exe()
+            .and_then(std::fs::read)
+            .map(|b| zmp_files::sha256_hex(&b)[..16].to_string())
+            .unwrap_or_default()
+    })
 }
 
 /// Where unit `id`'s result lives in job folder `dir`.
