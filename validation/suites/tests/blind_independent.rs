@@ -17,6 +17,7 @@ use zmp_suites::indep;
 use indep::{line, markdown, run_case, scores, suite, Case, Composition, Outcome};
 use zmp_campaign::par::parallel_map;
 use zmp_files::sections::check_page as doc_section;
+use zmp_suites::sharded::Range;
 
 /// Held-out seeds: never looked at while the diagnosis was developed. Ranges spent: from
 /// 900000 (its first run stopped on seed 900000, which was then examined: the delay's range,
@@ -174,8 +175,6 @@ use zmp_files::sections::check_page as doc_section;
 /// and low-pass named as a play). The ranges up to 1250000 held 60 draws; from 1260000 a range
 /// holds 300 ([`Composition::RANGE`]), still within the 10000 seeds between two ranges.
 const HELD_OUT_FIRST_SEED: u64 = 1_260_000;
-/// Development seeds.
-const DEV_FIRST_SEED: u64 = 1;
 
 // Thresholds of issue 55 (frozen before its held-out range ran): single effects named first,
 // clean robots without a false effect, false effects among in-catalogue draws, pairs and
@@ -329,23 +328,66 @@ fn held_out_blind_suite_on_an_independent_simulator() {
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
 
-#[test]
-#[ignore = "development seeds 1-300, hours on 2 cores: run by hand (cargo test --release -p zmp-suites --test blind_independent development -- --ignored)"]
-fn development_blind_suite_on_an_independent_simulator() {
-    let cases = suite(DEV_FIRST_SEED, &Composition::RANGE);
-    let outcomes = run_all(&cases);
-    if std::env::var("ZMP_BLIND_SEED").is_ok() {
-        return;
-    }
-    let table = markdown(
-        &format!(
-            "Development seeds {}-{} ({} draws)",
-            DEV_FIRST_SEED,
-            DEV_FIRST_SEED + cases.len() as u64 - 1,
-            cases.len()
-        ),
-        &outcomes,
+/// The development range as a job of `cargo xtask suite` (the job folder, its unit files and
+/// their merge, `zmp_suites::sharded::render`): with `ZMP_SUITE_JOB=DIR`, the complete job a
+/// `cargo xtask suite --range development --out DIR` run left there (in one process or in
+/// shards on a cluster) is merged; otherwise every draw runs here, in a temporary job folder.
+/// The table is the merge's either way, the same bytes.
+fn development_job() -> (Vec<Outcome>, String) {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = match std::env::var_os("ZMP_SUITE_JOB") {
+        Some(d) => std::path::PathBuf::from(d),
+        None => {
+            let (job, cases) = zmp_suites::sharded::job(Range::Development, None).unwrap();
+            let dir = tmp.path().join("development");
+            zmp_shard::open_job(&dir, &job).unwrap();
+            let opts = zmp_shard::RunOptions {
+                shard: zmp_shard::Shard::WHOLE,
+                only: None,
+                keep_done: false,
+                threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+                quiet: false,
+            };
+            zmp_shard::run_units(&dir, &job, &opts, |u| {
+                let case = cases
+                    .iter()
+                    .find(|c| zmp_suites::sharded::unit_id(c) == u.id)
+                    .unwrap();
+                zmp_suites::sharded::run_unit(case)
+            })
+            .unwrap();
+            dir
+        }
+    };
+    let c = zmp_shard::collect(&dir).unwrap_or_else(|e| panic!("{e:#}"));
+    assert!(
+        c.complete(),
+        "{}: the development job is not complete: {}",
+        dir.display(),
+        c.problems_text("cargo xtask suite --range development --resume --out DIR")
     );
+    assert_eq!(
+        zmp_suites::sharded::job_range(&c.job).unwrap().0,
+        Range::Development,
+        "{}: not a development job",
+        dir.display()
+    );
+    let outcomes: Vec<Outcome> = c
+        .done
+        .iter()
+        .map(|d| serde_json::from_value(d.outcome.clone()).unwrap())
+        .collect();
+    for o in &outcomes {
+        println!("{}  [{}]", line(o), o.truth);
+    }
+    let merged = zmp_suites::sharded::render(&c).unwrap();
+    (outcomes, merged.text)
+}
+
+#[test]
+#[ignore = "development seeds 1-300, hours on 2 cores: run by hand (cargo test --release -p zmp-suites --test blind_independent development -- --ignored), or merge a `cargo xtask suite --range development` job with ZMP_SUITE_JOB=DIR"]
+fn development_blind_suite_on_an_independent_simulator() {
+    let (outcomes, table) = development_job();
     println!("{table}");
     doc_section(
         "docs/src/suites.md",
