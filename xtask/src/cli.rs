@@ -155,10 +155,12 @@ pub enum Cmd {
     /// and records both versions and their errors in the ledger beside them.
     Augment(AugmentCmd),
     /// The whole loop in one command: identify the seed's model (with the acceleration limit
-    /// when the data show one), diagnose it, add what the diagnosis finds one effect at a time
-    /// (each version written beside the others and recorded in the ledger), diagnose again,
-    /// until the model explains the data or nothing significant is left; prints the error
-    /// waterfall and writes it (history.svg) with the diagnosis report.
+    /// when the data show one), diagnose it once (one search over structures of up to four
+    /// effects), and write what the search concludes as model versions, one effect added at a
+    /// time along the best structure (each version beside the others and recorded in the
+    /// ledger; every structure of the set when the records cannot decide, with the records
+    /// that will: design-next.toml); prints the error waterfall and writes it (history.svg)
+    /// with the diagnosis report.
     Loop(LoopCmd),
     /// Robust stability of the cascade ZMP controller against a model's multiplicative
     /// uncertainty (first seed, sections 6.4-6.6): the closed loop's complementary sensitivity

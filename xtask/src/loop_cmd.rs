@@ -1,8 +1,8 @@
 //! `cargo xtask loop CAMPAIGN`: the user's whole loop in one command. Identify the seed's
-//! model (with the acceleration limit when the data show one), diagnose it, add what the
-//! diagnosis finds one effect at a time (every version written and recorded in the ledger),
-//! diagnose again, until the model explains the data or nothing significant is left; then
-//! the error waterfall.
+//! model (with the acceleration limit when the data show one), diagnose it once, write each
+//! step of the best structure as a model version (every version recorded in the ledger; when
+//! the records cannot decide, every structure of the set and the designed records that will),
+//! then the error waterfall (`zmp_diagnose::iterate`).
 
 use crate::diagnose::{augmented_path, history_cmd, history_plot, read};
 use crate::simulate::{load_model, progress_bar};

@@ -1,14 +1,14 @@
 //! The loop's time limit (`DiagnoseOptions::time_limit`), on data this project did not make
 //! (`zmp-indep-sim`, no physics code shared with `zmp-models`).
 //!
-//! Spent held-out draw 1220001 (a lone play): the search named a friction, a mode and a play
-//! on the command, and the play tried inside its servo beside the friction and the mode
-//! (`iterate::play_law`) simulated every record at every evaluation, some records for
-//! seconds (stick-slip at 0.5 rad/s that never locks into a cycle). Without a limit that
+//! Spent held-out draw 1220001 (a lone play): the diagnosis before the search named a
+//! friction, a mode and a play on the command, and its refit of the play inside the servo
+//! beside the friction and the mode simulated every record at every evaluation, some records
+//! for seconds (stick-slip at 0.5 rad/s that never locks into a cycle). Without a limit that
 //! refit ran for over 40 minutes and held the whole held-out suite; with one, every fit ends
 //! with its best parameters so far once the limit passes, and the loop reports the model it
-//! reached and that the limit passed. (The loop now puts the play in the friction's place at
-//! once and ends in 76 s; the limit here is shorter than that.)
+//! reached and that the limit passed. The search fits such structures too (a play inside the
+//! servo beside a friction); the limit here is shorter than the draw's loop.
 
 use zmp_suites::indep_loop;
 

@@ -101,6 +101,18 @@ impl Profile for Backlash {
         out
     }
 
+    /// The widths alone: a play's absence is a width of zero, and inside the servo the drive's
+    /// share of the inertia acts through the transmission even without a play (its compliance
+    /// and drag), so a determined share is no evidence of a play.
+    fn strength(&self, fit: &crate::fit::Fit, _c: &Candidate) -> Vec<(f64, f64)> {
+        fit.frees
+            .iter()
+            .zip(&fit.std_err)
+            .filter(|(f, _)| f.kind == K && f.param == "width")
+            .map(|(f, e)| (f.bounds.value, *e))
+            .collect()
+    }
+
     fn costly(&self, c: &Candidate) -> bool {
         c.law == Law::InServo
     }
