@@ -32,4 +32,4 @@ pub mod unit;
 
 pub use collect::{collect, Collected, Merged};
 pub use job::{open_job, read_job, run_units, Job, JobKind, RunOptions, ShardRun};
-pub use partition::{partition, shard_units, Shard, UnitSpec};
+pub use partition::{lpt_order, partition, shard_units, Shard, UnitSpec};

@@ -105,8 +105,9 @@ impl fmt::Display for Shard {
 }
 
 /// The units' indices in longest-processing-time-first order: expected cost descending, ties
-/// by id ascending (a total order, so the same on every machine).
-pub(crate) fn lpt_order(units: &[UnitSpec]) -> Vec<usize> {
+/// by id ascending (a total order, so the same on every machine): the order a whole run takes
+/// them in, as its threads come free.
+pub fn lpt_order(units: &[UnitSpec]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..units.len()).collect();
     order.sort_by(|&a, &b| {
         units[b]
