@@ -152,6 +152,64 @@ mod tests {
     use crate::Axis;
 
     /// The servo effect `kind` with parameter `value`, built for step `h`.
+    /// The describing function's grid ([`periodic::STEPS_PER_PERIOD`]) against one 16 times
+    /// finer, over the servo's nonlinear laws and the band: first harmonics within 3e-5 of
+    /// their size (1.4e-5 measured: twice that, so a grid change that loses accuracy fails, a
+    /// thirtieth of a record's smallest noise), third harmonics within 1e-5 of the first.
+    #[test]
+    fn describing_functions_hold_at_512_steps_per_period() {
+        use crate::effects::servo_link::TrunkLink;
+        use crate::EffectKind as K;
+        let h = 1e-3;
+        let play = TrunkLink {
+            omega_m: 150.0,
+            zeta_m: 0.2,
+            share: 1.0,
+            drive: 0.3,
+            half_play: 0.15e-3,
+            drag: 20.0,
+        };
+        let flex = TrunkLink::flexible(8.0, 0.08, 0.3, 0.3);
+        let fric = |v| (K::CoulombFriction, v);
+        let sat = |v| (K::AccelerationSaturation, v);
+        let cases: Vec<(Option<TrunkLink>, Vec<(K, f64)>, f64)> = vec![
+            (None, vec![fric(0.3)], 0.003),
+            (None, vec![fric(0.05)], 0.003),
+            (None, vec![sat(0.8)], 0.008),
+            (None, vec![fric(0.2), sat(0.5)], 0.008),
+            (Some(play), vec![], 0.003),
+            (Some(play), vec![sat(0.8)], 0.008),
+            (Some(play), vec![fric(0.2)], 0.003),
+            (Some(flex), vec![sat(0.8)], 0.008),
+        ];
+        let mut worst = (0.0f64, 0.0f64);
+        for omega in [0.5, 1.15, 2.65, 6.1, 15.0] {
+            for (link, ls, a) in &cases {
+                let mut l: Vec<Box<dyn Effect>> =
+                    ls.iter().map(|(k, v)| limit(*k, *v, h)).collect();
+                let grid = periodic::first_harmonic(30.0, 1.0, h, *link, &mut l, omega, *a, None).0;
+                let mut l: Vec<Box<dyn Effect>> =
+                    ls.iter().map(|(k, v)| limit(*k, *v, h)).collect();
+                let fine = periodic::first_harmonic_with_steps(
+                    30.0,
+                    1.0,
+                    h,
+                    *link,
+                    &mut l,
+                    omega,
+                    *a,
+                    16.0 * periodic::STEPS_PER_PERIOD,
+                );
+                let size = fine.first.norm();
+                worst.0 = worst.0.max((grid.first - fine.first).norm() / size);
+                worst.1 = worst.1.max((grid.third - fine.third).norm() / size);
+            }
+        }
+        assert!(worst.0 < 3e-5, "first harmonics off by {:.1e}", worst.0);
+        assert!(worst.1 < 1e-5, "third harmonics off by {:.1e}", worst.1);
+        assert!(worst.0 > 0.0, "the finer grid changed nothing: no test");
+    }
+
     pub(super) fn limit(kind: crate::EffectKind, value: f64, h: f64) -> Box<dyn Effect> {
         let ctx = BuildContext {
             h,
@@ -185,7 +243,7 @@ mod tests {
     ) -> Complex64 {
         let h: f64 = 1e-3;
         let period = 2.0 * std::f64::consts::PI / omega;
-        let per = ((period / h.max((period / 2048.0).min(2.5 * h))).ceil() as usize).max(16);
+        let per = ((period / h.max(period / periodic::STEPS_PER_PERIOD)).ceil() as usize).max(16);
         let h_df = period / per as f64;
         let mut servo = Servo::new(30.0, 1.0, h_df);
         let mut l = [limit(kind, value, h)];
