@@ -252,9 +252,11 @@ mod tests {
             let mut limits = vec![(info.build)(&ctx, &[limit])];
             let with = servo_first_harmonic(wn, zeta, h, &mut limits, w, a);
             let without = servo_first_harmonic(wn, zeta, h, &mut [], w, a);
-            // Equal up to rounding: the effect computes its linear run at unit amplitude.
+            // Equal up to rounding: the effect computes its linear run at unit amplitude (a
+            // limit never reached: 1 exactly, against the ratio of two runs of some thousand
+            // steps, each rounding in the last bits).
             let (df, own) = (with / without, e.frequency_response(w, a));
-            assert!((df - own).norm() <= 1e-12 * own.norm(), "{df} vs {own}");
+            assert!((df - own).norm() <= 1e-11 * own.norm(), "{df} vs {own}");
         }
     }
 
