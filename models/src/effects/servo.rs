@@ -172,7 +172,9 @@ mod tests {
         let flex = TrunkLink::flexible(8.0, 0.08, 0.3, 0.3);
         let fric = |v| (K::CoulombFriction, v);
         let sat = |v| (K::AccelerationSaturation, v);
-        let cases: Vec<(Option<TrunkLink>, Vec<(K, f64)>, f64)> = vec![
+        // (link inside the servo, limits with their value, amplitude)
+        type Case = (Option<TrunkLink>, Vec<(K, f64)>, f64);
+        let cases: Vec<Case> = vec![
             (None, vec![fric(0.3)], 0.003),
             (None, vec![fric(0.05)], 0.003),
             (None, vec![sat(0.8)], 0.008),
