@@ -123,7 +123,7 @@ fn a_sensor_drift_is_named_with_its_rate() {
 /// A play of 0.6 mm on the CoM command (a fifth of the small sine): its width within 15 %
 /// (the play's lag and gain loss on the 3 mm sines carry it; the 8 mm ones barely see it).
 #[test]
-#[ignore = "long: about 100 s on 2 cores (the play's describing functions are simulated)"]
+#[ignore = "known failure (found 2026-12-07, the same at 0e673f4): named alone, widths 0.601 and 0.606 mm (within 1 %), but not explained: 1.3x the floor, a trend in every record on the x ZMP changing from record to record (mean 0.001 mm/s, spread 0.056 mm/s) is left; the run was ignored as long, never as failing"]
 fn a_play_on_the_command_is_named_with_its_width() {
     named(
         "[backlash]\nwidth = 0.0006\n",
