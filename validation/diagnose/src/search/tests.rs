@@ -167,3 +167,36 @@ fn adm_sorted(nodes: &BTreeMap<Structure, Node>, z: f64, c: f64) -> Vec<Structur
     adm.sort_by(|a, b| nodes[a].held.chi2.total_cmp(&nodes[b].held.chi2));
     adm
 }
+
+/// A play inside the servo is determined by its widths alone: a well-determined drive share
+/// (it acts through the transmission even without a play) with a width the records leave at
+/// zero is no play; the same width determined is one.
+#[test]
+fn a_play_is_determined_by_its_width_not_its_drive_share() {
+    let play = Candidate::new(EffectKind::Backlash, Law::InServo);
+    let spec = ModelSpec::parse(
+        include_str!("../../../../models/params/silo2-paper.toml"),
+        "silo2-paper.toml",
+    )
+    .unwrap();
+    let x = vec![Binding::Axis(zmp_models::Axis::X)];
+    let fit = |width: f64| Fit {
+        spec: spec.clone(),
+        frees: vec![
+            Free::new(EffectKind::Backlash, x.clone(), "width", width, 0.0, 0.01),
+            Free::new(EffectKind::Backlash, x.clone(), "drive", 0.3, 0.01, 0.9),
+        ],
+        // The share 0.3 +- 0.001 (300 standard errors), the width +- 1e-5 m.
+        std_err: vec![1e-5, 0.001],
+        cost: 0.0,
+    };
+    let z = threshold(100);
+    assert!(
+        !determined(&fit(0.0), &play, z),
+        "a zero width with a known share"
+    );
+    assert!(
+        determined(&fit(3e-4), &play, z),
+        "a width of 30 standard errors"
+    );
+}
