@@ -211,10 +211,19 @@ impl Collected {
             s.push_str(&format!("failed unit {}: {}\n", f.unit, f.error));
         }
         if !self.missing.is_empty() {
+            // The first few by name (`--json` lists every one): a job stopped early misses
+            // hundreds.
+            const NAMED: usize = 12;
+            let more = self.missing.len().saturating_sub(NAMED);
             s.push_str(&format!(
-                "missing units ({}): {}\n",
+                "missing units ({}): {}{}\n",
                 self.missing.len(),
-                self.missing.join(", ")
+                self.missing[..self.missing.len().min(NAMED)].join(", "),
+                if more > 0 {
+                    format!(", and {more} more")
+                } else {
+                    String::new()
+                }
             ));
         }
         if !self.unknown.is_empty() {
@@ -318,6 +327,13 @@ mod tests {
         let text = c.problems_text("cargo xtask fleet DIR --out OUT");
         assert!(text.contains("failed unit b: malformed"), "{text}");
         assert!(text.contains("missing units (1): d"), "{text}");
+        // A job stopped early: the first twelve missing named, the count of the rest.
+        let mut many = c.clone();
+        many.missing = (0..30).map(|k| format!("u{k}")).collect();
+        let text = many.problems_text("cargo xtask fleet DIR --out OUT");
+        assert!(text.contains("missing units (30): u0, u1,"), "{text}");
+        assert!(text.contains("u11, and 18 more\n"), "{text}");
+        assert!(!text.contains("u12"), "{text}");
         assert_eq!(c.cost().total_s, 1.5 + 3.0 + 0.2);
         // A file whose id does not match its name is a failure of that unit, named.
         std::fs::copy(unit_path(&dir, "a"), unit_path(&dir, "d")).unwrap();
