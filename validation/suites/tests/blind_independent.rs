@@ -14,8 +14,8 @@
 
 use zmp_suites::indep;
 
-use indep::{line, markdown, run_case, scores, suite, Case, Composition, Outcome};
-use zmp_campaign::par::parallel_map;
+use indep::{line, scores, Outcome};
+use std::time::{Duration, Instant};
 use zmp_files::sections::check_page as doc_section;
 use zmp_suites::sharded::Range;
 
@@ -188,31 +188,9 @@ const MAX_AMBIGUOUS: f64 = 0.25;
 const MIN_OUTSIDE: f64 = 0.80;
 const MIN_WORDS: f64 = 0.70;
 
-fn run_all(cases: &[Case]) -> Vec<Outcome> {
-    let dir = tempfile::tempdir().unwrap();
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let only: Option<u64> = std::env::var("ZMP_BLIND_SEED")
-        .ok()
-        .and_then(|s| s.parse().ok());
-    let cases: Vec<&Case> = cases
-        .iter()
-        .filter(|c| only.is_none_or(|s| s == c.seed))
-        .collect();
-    let out = parallel_map(cases.len(), threads, |k| {
-        let o = run_case(cases[k], dir.path())
-            .unwrap_or_else(|e| panic!("seed {} {}: {e:#}", cases[k].seed, cases[k].scenario));
-        eprintln!("{}", line(&o));
-        o
-    });
-    for o in &out {
-        println!("{}  [{}]", line(o), o.truth);
-    }
-    out
-}
-
 /// Appends the range's row to the held-out record (`zmp_suites::history`) and regenerates the
 /// book's history page: the date, the commit that ran it, the counts, the minutes.
-fn record_range(first_seed: u64, outcomes: &[Outcome], took: std::time::Duration) {
+fn record_range(first_seed: u64, outcomes: &[Outcome], took: Option<std::time::Duration>) {
     let s = scores(outcomes);
     let code = std::process::Command::new("git")
         .args(["rev-parse", "--short=7", "HEAD"])
@@ -242,7 +220,7 @@ fn record_range(first_seed: u64, outcomes: &[Outcome], took: std::time::Duration
         ambiguous: Some(s.ambiguous),
         words: (s.words.1 > 0).then_some(s.words),
         after_design: (s.after_design.1 > 0).then_some(s.after_design),
-        minutes: Some(took.as_secs_f64() / 60.0),
+        minutes: took.map(|t| t.as_secs_f64() / 60.0),
         note: String::new(),
     };
     zmp_suites::history::append(&row).unwrap_or_else(|e| panic!("{e}"));
@@ -303,43 +281,31 @@ fn check(outcomes: &[Outcome]) -> Vec<String> {
 #[test]
 #[ignore = "300 draws, hours on 2 cores (or sharded: cargo xtask suite): run once, by hand, with ZMP_UPDATE_DOCS=1 (cargo test --release -p zmp-suites --test blind_independent held_out -- --ignored); it writes the book's table and appends its row to the held-out record"]
 fn held_out_blind_suite_on_an_independent_simulator() {
-    let cases = suite(HELD_OUT_FIRST_SEED, &Composition::RANGE);
-    assert_eq!(cases.len(), 300);
-    let started = std::time::Instant::now();
-    let outcomes = run_all(&cases);
-    if std::env::var("ZMP_BLIND_SEED").is_ok() {
-        return;
-    }
-    let table = markdown(
-        &format!(
-            "Held-out seeds {}-{} ({} draws)",
-            HELD_OUT_FIRST_SEED,
-            HELD_OUT_FIRST_SEED + cases.len() as u64 - 1,
-            cases.len()
-        ),
-        &outcomes,
-    );
+    let (outcomes, table, took) = suite_job(Range::HeldOut, Some(HELD_OUT_FIRST_SEED));
+    assert_eq!(outcomes.len(), 300);
     println!("{table}");
     doc_section("docs/src/suites.md", "blind-independent:held-out", &table);
     if std::env::var(zmp_files::sections::UPDATE_VAR).is_ok_and(|v| v == "1") {
-        record_range(HELD_OUT_FIRST_SEED, &outcomes, started.elapsed());
+        record_range(HELD_OUT_FIRST_SEED, &outcomes, took);
     }
     let bad = check(&outcomes);
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
 
-/// The development range as a job of `cargo xtask suite` (the job folder, its unit files and
-/// their merge, `zmp_suites::sharded::render`): with `ZMP_SUITE_JOB=DIR`, the complete job a
-/// `cargo xtask suite --range development --out DIR` run left there (in one process or in
-/// shards on a cluster) is merged; otherwise every draw runs here, in a temporary job folder.
+/// A range as a job of `cargo xtask suite` (the job folder, its unit files and their merge,
+/// `zmp_suites::sharded::render`): with `ZMP_SUITE_JOB=DIR`, the complete job a `cargo xtask
+/// suite --range RANGE --out DIR` run left there (in one process or in shards on a cluster,
+/// resumed as often as it took) is merged, and the run's minutes are not known here (`None`);
+/// otherwise every draw runs here, in a temporary job folder, and the minutes are this run's.
 /// The table is the merge's either way, the same bytes.
-fn development_job() -> (Vec<Outcome>, String) {
+fn suite_job(range: Range, first_seed: Option<u64>) -> (Vec<Outcome>, String, Option<Duration>) {
     let tmp = tempfile::tempdir().unwrap();
-    let dir = match std::env::var_os("ZMP_SUITE_JOB") {
-        Some(d) => std::path::PathBuf::from(d),
+    let started = Instant::now();
+    let (dir, took) = match std::env::var_os("ZMP_SUITE_JOB") {
+        Some(d) => (std::path::PathBuf::from(d), None),
         None => {
-            let (job, cases) = zmp_suites::sharded::job(Range::Development, None).unwrap();
-            let dir = tmp.path().join("development");
+            let (job, cases) = zmp_suites::sharded::job(range, first_seed).unwrap();
+            let dir = tmp.path().join("job");
             zmp_shard::open_job(&dir, &job).unwrap();
             let opts = zmp_shard::RunOptions {
                 shard: zmp_shard::Shard::WHOLE,
@@ -356,21 +322,22 @@ fn development_job() -> (Vec<Outcome>, String) {
                 zmp_suites::sharded::run_unit(case)
             })
             .unwrap();
-            dir
+            (dir, Some(started.elapsed()))
         }
     };
     let c = zmp_shard::collect(&dir).unwrap_or_else(|e| panic!("{e:#}"));
+    let (job_range, job_first) = zmp_suites::sharded::job_range(&c.job).unwrap();
+    assert_eq!(job_range, range, "{}: not a {range} job", dir.display());
+    if let Some(first) = first_seed {
+        assert_eq!(job_first, Some(first), "{}: another range", dir.display());
+    }
     assert!(
         c.complete(),
-        "{}: the development job is not complete: {}",
+        "{}: the job is not complete: {}",
         dir.display(),
-        c.problems_text("cargo xtask suite --range development --resume --out DIR")
-    );
-    assert_eq!(
-        zmp_suites::sharded::job_range(&c.job).unwrap().0,
-        Range::Development,
-        "{}: not a development job",
-        dir.display()
+        c.problems_text(&format!(
+            "cargo xtask suite --range {range} --resume --out DIR"
+        ))
     );
     let outcomes: Vec<Outcome> = c
         .done
@@ -381,13 +348,13 @@ fn development_job() -> (Vec<Outcome>, String) {
         println!("{}  [{}]", line(o), o.truth);
     }
     let merged = zmp_suites::sharded::render(&c).unwrap();
-    (outcomes, merged.text)
+    (outcomes, merged.text, took)
 }
 
 #[test]
 #[ignore = "development seeds 1-300, hours on 2 cores: run by hand (cargo test --release -p zmp-suites --test blind_independent development -- --ignored), or merge a `cargo xtask suite --range development` job with ZMP_SUITE_JOB=DIR"]
 fn development_blind_suite_on_an_independent_simulator() {
-    let (outcomes, table) = development_job();
+    let (outcomes, table, _) = suite_job(Range::Development, None);
     println!("{table}");
     doc_section(
         "docs/src/suites.md",
