@@ -196,19 +196,6 @@ fn pct(a: f64, b: f64) -> String {
     format!("{:+.1} %", 100.0 * (a / b - 1.0))
 }
 
-/// Makespan of taking `times` in the order given, each to the worker that comes free first
-/// (a process's thread pool over its queue).
-fn queue_makespan(times: &[f64], workers: usize) -> f64 {
-    let mut load = vec![0.0_f64; workers.max(1)];
-    for t in times {
-        let k = (0..load.len())
-            .min_by(|&a, &b| load[a].total_cmp(&load[b]))
-            .unwrap_or(0);
-        load[k] += t;
-    }
-    load.into_iter().fold(0.0, f64::max)
-}
-
 /// The development range's measured unit times (`$ZMP_SCALE_DEV_DIR`, a complete `cargo xtask
 /// suite --range development` job): the cost model on 8, 64 and 256 workers, and what the
 /// static partition into 2 shards (balanced by the units' expected costs) costs against one
@@ -233,7 +220,7 @@ fn dev_prediction(dir: &Path) -> String {
         .into_iter()
         .map(|k| time(&job.units[k].id))
         .collect();
-    let queue_2 = queue_makespan(&order, 2);
+    let queue_2 = zmp_shard::cost::list_makespan(&order, 2);
     let m = cost_model(&units, &[2, 8, 64, 256]);
     let c = m.critical_path.clone().expect("units");
     let mut t = format!(

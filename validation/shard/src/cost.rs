@@ -12,15 +12,17 @@ pub const WORKERS: [usize; 5] = [1, 2, 8, 64, 256];
 
 /// Makespan of the LPT schedule of `times` (seconds) on `workers` workers.
 pub fn lpt_makespan(times: &[f64], workers: usize) -> f64 {
-    let workers = workers.max(1);
     let mut sorted: Vec<f64> = times.to_vec();
     sorted.sort_by(|a, b| b.total_cmp(a));
-    if workers >= sorted.len() {
-        return sorted.first().copied().unwrap_or(0.0);
-    }
-    let mut load = vec![0.0_f64; workers];
-    for t in sorted {
-        let k = (0..workers)
+    list_makespan(&sorted, workers)
+}
+
+/// Makespan of taking `times` (seconds) in the order given, each to the worker that comes
+/// free first (list scheduling: a process's thread pool over its queue).
+pub fn list_makespan(times: &[f64], workers: usize) -> f64 {
+    let mut load = vec![0.0_f64; workers.max(1)];
+    for &t in times {
+        let k = (0..load.len())
             .min_by(|&a, &b| load[a].total_cmp(&load[b]))
             .unwrap_or(0);
         load[k] += t;

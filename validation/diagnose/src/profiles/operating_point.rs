@@ -71,11 +71,16 @@ fn channels(spec: &ModelSpec) -> Vec<Channel> {
         .collect()
 }
 
+/// The CoM axis a line of operating points with direction `u` runs most along.
+fn dominant(u: [f64; 2]) -> usize {
+    usize::from(u[1].abs() > u[0].abs())
+}
+
 /// The per-channel slopes the records determine (module documentation): `(ab, direction)`
 /// for channel `c`.
 fn channel_slopes(spec: &ModelSpec, c: Channel, r: &DataRange) -> Vec<(usize, usize)> {
     let spanned: Vec<usize> = match r.op_line {
-        Some(u) => vec![usize::from(u[1].abs() > u[0].abs())],
+        Some(u) => vec![dominant(u)],
         None => (0..2).filter(|k| r.op_span[*k] > 1e-9).collect(),
     };
     let mut out = Vec::new();
@@ -191,7 +196,7 @@ impl Profile for OperatingPoint {
                      measured: the slopes across it are not determined",
                     u[0],
                     u[1],
-                    if u[1].abs() > u[0].abs() { "y" } else { "x" }
+                    ["x", "y"][dominant(u)]
                 ));
             }
         } else if let Some(u) = op_line(e.obs) {
