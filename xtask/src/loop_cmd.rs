@@ -363,6 +363,9 @@ fn write_reports(
             let words = a.distinguished.as_ref().map_or("", |s| s.words.as_str());
             say(&format!("   ? {}: {words}", a.structure));
         }
+        for p in &d.parted {
+            say(&format!("   ! {}", p.words));
+        }
     }
     Ok(reports)
 }

@@ -42,6 +42,22 @@
 //!
 //! against the same threshold: both tests at level `alpha/m` must reject, so their
 //! intersection is a test at that level too (Berger's intersection-union test).
+//!
+//! **Neither.** Cox's test, centred on each hypothesis in turn, also says when the records
+//! reject both: if A were the whole truth, `D` would be `|delta|^2` give or take
+//! `2 sqrt(c) |delta|`; if B were, `-|delta|^2`. So
+//!
+//! ```text
+//! t_A = (D - |delta|^2) / (2 sqrt(c) |delta|),    t_B = (D + |delta|^2) / (2 sqrt(c) |delta|)
+//! ```
+//!
+//! are standard normal under A and under B respectively, and `t_A < -z` and `t_B > z`
+//! ([`Comparison::neither`]) reject each at the same level. Two structures whose predictions
+//! part by many standard deviations and that fit the records about equally are then not what
+//! the records cannot decide between: the records decide, against both (each leaves a misfit
+//! along the direction that parts them, which the other half-fits). That takes
+//! `|delta| > 2 sqrt(c) z`; below it no outcome rejects both, and a `D` near zero means the
+//! records hold too little to part them (the ambiguity set, and the experiment that decides).
 
 use crate::measure::{aggregate, predict, score, whitened, RecordScore};
 use crate::observe::Observation;
@@ -169,12 +185,34 @@ pub struct Comparison {
     /// `min(difference / (2 sqrt(c) distance), sign(difference) sqrt(|difference| / c))`: the
     /// smaller of Cox's statistic and the likelihood ratio's (0 for identical predictions).
     pub z: f64,
+    /// `2 sqrt(c) distance`: the standard deviation of `difference` under either structure.
+    pub spread: f64,
 }
 
 impl Comparison {
     /// Whether A is significantly better than B at threshold `z_crit` ([`threshold`]).
     pub fn better(&self, z_crit: f64) -> bool {
         self.z > z_crit
+    }
+
+    /// Cox's statistics centred on each structure: `(t_A, t_B)`, standard normal if A
+    /// (respectively B) is the whole truth; `(0, 0)` for identical predictions.
+    pub fn centred(&self) -> (f64, f64) {
+        if self.spread <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let expected = self.distance * self.distance;
+        (
+            (self.difference - expected) / self.spread,
+            (self.difference + expected) / self.spread,
+        )
+    }
+
+    /// Whether the records reject both structures at threshold `z_crit`: they part them, yet
+    /// fit neither as either would fit them were it the whole truth (module documentation).
+    pub fn neither(&self, z_crit: f64) -> bool {
+        let (t_a, t_b) = self.centred();
+        t_a < -z_crit && t_b > z_crit
     }
 }
 
@@ -200,6 +238,7 @@ pub fn compare(a: &HeldOut, b: &HeldOut, c: f64) -> Comparison {
         difference,
         distance,
         z,
+        spread: 2.0 * c.sqrt() * distance,
     }
 }
 
@@ -274,6 +313,42 @@ pub(crate) mod tests {
         // chi2(0.99; 6) = 16.81, chi2(0.99; 100) = 135.81.
         assert!((chi2_quantile(6.0, 0.01) / 16.812 - 1.0).abs() < 0.01);
         assert!((chi2_quantile(100.0, 0.01) / 135.807 - 1.0).abs() < 0.002);
+    }
+
+    /// Two structures whose held-out predictions part by 20 standard deviations while the
+    /// records' misfit lies halfway between them (each misses by 10 along the direction that
+    /// parts them): neither is better, and Cox's test centred on each rejects both. With A
+    /// the truth, B is worse and A is not rejected. Parting by 3 standard deviations (under
+    /// `2 sqrt(c) z`), no outcome rejects both.
+    #[test]
+    fn records_that_part_two_structures_and_fit_neither_reject_both() {
+        let noise = normals(200, 31);
+        let dir = normals(200, 32);
+        let norm = dir.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let along = |k: f64| -> Vec<f64> {
+            noise
+                .iter()
+                .zip(&dir)
+                .map(|(e, u)| e + k * u / norm)
+                .collect()
+        };
+        let z = threshold(10);
+        let (a, b) = (held(along(10.0)), held(along(-10.0)));
+        let c = a.mismatch().min(b.mismatch());
+        let ab = compare(&a, &b, c);
+        assert!((ab.distance - 20.0).abs() < 1e-9, "{ab:?}");
+        assert!(!ab.better(z) && !compare(&b, &a, c).better(z), "{ab:?}");
+        assert!(ab.neither(z) && compare(&b, &a, c).neither(z), "{ab:?}");
+        let (a, b) = (held(along(0.0)), held(along(-20.0)));
+        let ab = compare(&a, &b, a.mismatch());
+        let (t_a, t_b) = ab.centred();
+        assert!(ab.better(z) && !ab.neither(z), "{ab:?}");
+        assert!(t_a.abs() < z && t_b > z, "{t_a} {t_b}");
+        let (a, b) = (held(along(1.5)), held(along(-1.5)));
+        for c in [1.0, 2.0] {
+            let ab = compare(&a, &b, c);
+            assert!(!ab.neither(z) && !ab.better(z), "{ab:?}");
+        }
     }
 
     /// A structure that adds only noise to its parent's predictions (here 400 parents and

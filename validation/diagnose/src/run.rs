@@ -21,7 +21,7 @@ use zmp_models::{Axis, Binding, Channel, EffectKind, ModelSpec};
 mod findings;
 mod output;
 
-pub use findings::{Alternative, Finding, Subject, Tried};
+pub use findings::{Alternative, Finding, Parted, Subject, Tried};
 
 /// Format name of the JSON report.
 pub const DIAGNOSIS_FORMAT: &str = "zmp-diagnosis/1";
@@ -121,6 +121,9 @@ pub struct Diagnosis {
     pub chain: Vec<(Structure, Fit)>,
     /// The structures the data cannot decide between, best first (one when they can).
     pub alternatives: Vec<Alternative>,
+    /// Structures the records part from a member of the set yet fit about as well (neither
+    /// is the whole truth).
+    pub parted: Vec<Parted>,
     /// The model's own structure refitted on every record.
     pub refit: Option<Fit>,
     /// The final model's error on every record (the diagnosis measure).
@@ -141,6 +144,9 @@ pub struct Diagnosis {
     pub residual: Vec<ResidualFeature>,
     /// The criterion's threshold, a standard normal deviate.
     pub z_crit: f64,
+    /// The criterion's mismatch factor: the best structure's held-out chi-square per
+    /// component, at least 1.
+    pub mismatch: f64,
     /// How many structures the search compared.
     pub compared: usize,
     /// Whether the time limit passed before the search ended.
@@ -337,6 +343,7 @@ fn run(
         .filter_map(|st| all.get(&st).map(|f| (st, f.clone())))
         .collect();
     let alternatives = alternatives(&s, model, &obs, &mut all);
+    let parted = s.parted.iter().map(|(m, p)| Parted::of(m, p, &s)).collect();
     let root = s.node(&Structure::root());
     let refit = all.get(&Structure::root()).cloned();
     let explained_as_is = explains(&obs, &base_predictions);
@@ -405,6 +412,7 @@ fn run(
         final_model,
         chain,
         alternatives,
+        parted,
         refit,
         final_error,
         cells: cells(&obs, &base_predictions),
@@ -415,6 +423,7 @@ fn run(
         tried,
         residual,
         z_crit: s.z_crit,
+        mismatch: s.mismatch,
         compared: s.compared,
         time_limit_reached: zmp_campaign::par::past_deadline() || s.cut_short,
     })

@@ -16,7 +16,10 @@
 //! *best* is the admissible structure with the lowest held-out chi-square. The *set* is the
 //! best and the admissible structures that are not significantly worse than it nor than any
 //! structure already in the set (at most [`MAX_SET`], one per set of kinds, best first): more
-//! than one, and the data cannot decide between them. A structure that does not predict
+//! than one, and the data cannot decide between them. A structure the records part from a
+//! member of the set by many standard deviations yet fit about as well is no such
+//! alternative: Cox's test centred on each rejects both (`criterion`), and it is reported
+//! as parted from that member (neither is the whole truth). A structure that does not predict
 //! significantly better than a smaller admissible structure inside it (the identified model's
 //! own, say) is no alternative to it.
 
@@ -67,6 +70,10 @@ pub struct Search {
     pub best: Structure,
     /// What the data cannot decide between (the best first; one member when they can).
     pub set: Vec<Structure>,
+    /// Structures the records part from a member of the set (the member first) yet fit about
+    /// as well: Cox's test rejects both ([`Comparison::neither`]), so they are no alternative
+    /// the records cannot decide between, and neither is the whole truth.
+    pub parted: Vec<(Structure, Structure)>,
     /// Whether the time limit passed before every planned structure was scored.
     pub cut_short: bool,
 }
@@ -252,7 +259,7 @@ pub fn search(
         .cloned()
         .collect();
     admissible.sort_by(|a, b| nodes[a].held.chi2.total_cmp(&nodes[b].held.chi2));
-    let set = ambiguity_set(&nodes, &admissible, z_crit, c);
+    let (set, parted) = ambiguity_set(&nodes, &admissible, z_crit, c);
     Some(Search {
         best: set.first().cloned().unwrap_or_default(),
         nodes,
@@ -261,6 +268,7 @@ pub fn search(
         mismatch: c,
         admissible,
         set,
+        parted,
         cut_short,
     })
 }
@@ -311,13 +319,14 @@ pub fn determined(fit: &Fit, c: &Candidate, z_crit: f64) -> bool {
 
 /// The best admissible structure and those the data cannot separate from it (see the module
 /// documentation), leaving out every structure that is not significantly better than a
-/// smaller admissible one inside it.
+/// smaller admissible one inside it; and the structures left out because the records part
+/// them from a member yet fit neither (`Comparison::neither`), each with that member.
 fn ambiguity_set(
     nodes: &BTreeMap<Structure, Node>,
     admissible: &[Structure],
     z_crit: f64,
     c: f64,
-) -> Vec<Structure> {
+) -> (Vec<Structure>, Vec<(Structure, Structure)>) {
     // Parsimony: a structure that does not predict significantly better than a smaller
     // admissible structure inside it (`Structure::holds`: fewer effects, or a law that holds
     // another as a special case) is no alternative to it (the test is not transitive: two
@@ -332,19 +341,23 @@ fn ambiguity_set(
         })
         .collect();
     let mut set: Vec<Structure> = Vec::new();
+    let mut parted = Vec::new();
     for s in pool {
         if set.len() >= MAX_SET {
             break;
         }
-        let worse = set
-            .iter()
-            .any(|m| compare(&nodes[m].held, &nodes[s].held, c).better(z_crit));
+        let against = |m: &Structure| compare(&nodes[m].held, &nodes[s].held, c);
+        let worse = set.iter().any(|m| against(m).better(z_crit));
         let same_kinds = set.iter().any(|m| m.kinds() == s.kinds());
-        if !worse && !same_kinds {
-            set.push(s.clone());
+        if worse || same_kinds {
+            continue;
+        }
+        match set.iter().find(|m| against(m).neither(z_crit)) {
+            Some(m) => parted.push((m.clone(), s.clone())),
+            None => set.push(s.clone()),
         }
     }
-    set
+    (set, parted)
 }
 
 /// Scores every structure of `todo` not scored yet (both folds in parallel), each from its

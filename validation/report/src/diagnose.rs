@@ -260,8 +260,9 @@ const MEASURE: &str = "<p><b>Error measure</b> (the same everywhere): per record
 its steady state of the difference between the measured and the modelled response (first \
 harmonic and linear trend of both ZMP outputs), divided by the RMS of the measured first \
 harmonic; the campaign figure is the RMS over records. The <b>noise floor</b> is the same \
-measure for the estimation noise of the measured components alone (from the residual of each \
-record's harmonic fit): what a perfect model would score.</p>";
+measure for the estimation noise of the measured components alone (from how each component \
+varies from period to period of the record's steady state): what a perfect model would \
+score.</p>";
 
 /// Comparison report of `campaign` against one model; returns the HTML file.
 #[allow(clippy::too_many_arguments)] // the report's inputs, all distinct

@@ -138,6 +138,67 @@ impl Alternative {
     }
 }
 
+/// A structure the records part from a member of the set yet fit about as well: Cox's test
+/// centred on each rejects both (`criterion::Comparison::neither`), so it is no alternative
+/// the data cannot decide between, and neither is the whole truth.
+#[derive(Debug, Clone, Serialize)]
+pub struct Parted {
+    /// The parted structure's effects, by catalogue name.
+    pub effects: Vec<&'static str>,
+    /// The parted structure in words (laws and planes).
+    pub structure: String,
+    /// The member of the set it was compared with, in words.
+    pub against: String,
+    /// How far apart their held-out predictions are, in noise standard deviations in all.
+    pub distance_sigma: f64,
+    /// Its held-out chi-square less the member's.
+    pub chi2_difference: f64,
+    /// The difference either would give were the other the whole truth (`distance^2`).
+    pub expected_difference: f64,
+    /// Cox's statistic against the member as the whole truth (rejected above the threshold).
+    pub z_against_member: f64,
+    /// Cox's statistic against the parted structure as the whole truth.
+    pub z_against_it: f64,
+    /// The same in words.
+    pub words: String,
+}
+
+impl Parted {
+    pub(super) fn of(member: &Structure, st: &Structure, s: &Search) -> Self {
+        let cmp = s.compare(member, st);
+        let (t_a, t_b) = cmp.centred();
+        let expected = cmp.distance * cmp.distance;
+        let words = format!(
+            "{} predicts the held-out records about as well as {} (held-out chi-square {:+.0}), \
+             yet the records part the two by {:.1} noise standard deviations: were either the \
+             whole truth, the other would do worse by about {:.0} (give or take {:.0}). Cox's \
+             test rejects each (z = {:.1} and {:.1} against {:.2}): neither is the whole \
+             truth, both miss something along what parts them, and no new record is needed to \
+             tell them apart",
+            st.label(),
+            member.label(),
+            cmp.difference,
+            cmp.distance,
+            expected,
+            cmp.spread,
+            -t_a,
+            t_b,
+            s.z_crit
+        );
+        Parted {
+            effects: st.effects().iter().map(|c| c.name()).collect(),
+            structure: st.label(),
+            against: member.label(),
+            distance_sigma: cmp.distance,
+            chi2_difference: cmp.difference,
+            expected_difference: expected,
+            z_against_member: -t_a,
+            z_against_it: t_b,
+            words,
+        }
+    }
+}
+
 /// A single candidate as the search scored it.
 #[derive(Debug, Clone, Serialize)]
 pub struct Tried {

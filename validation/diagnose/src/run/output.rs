@@ -26,12 +26,14 @@ impl Diagnosis {
             "explained": self.explained,
             "selected": self.selected.iter().map(|(c, x)| json!({"effect": c.name(), "structure": c.label(), "error_after": x})).collect::<Vec<_>>(),
             "set": self.alternatives,
+            "parted": self.parted,
             "residual": self.residual,
             "criterion": {
                 "statistic": "z = min(D / (2 sqrt(c) |r_B - r_A|), sign(D) sqrt(|D| / c)), D = held-out chi2(B) - chi2(A): Cox's test of two structures on their held-out predictions and the likelihood ratio of one added parameter, both at the level, c the best structure's mismatch factor",
                 "alpha": ALPHA,
                 "structures_compared": self.compared,
                 "z_threshold": self.z_crit,
+                "mismatch": self.mismatch,
             },
             "tried": self.tried,
             "where_it_fails": self.cells.iter().filter(|c| c.significant).take(12).collect::<Vec<_>>(),
@@ -122,6 +124,12 @@ impl Diagnosis {
                 if let Some(d) = &a.distinguished {
                     s.push_str(&format!("    {}\n", d.words));
                 }
+            }
+        }
+        if !self.parted.is_empty() {
+            s.push_str("What the records part yet fit no better (neither is the whole truth):\n");
+            for p in &self.parted {
+                s.push_str(&format!("  - {}\n", p.words));
             }
         }
         if !self.residual.is_empty() {

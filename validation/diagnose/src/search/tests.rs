@@ -78,7 +78,8 @@ fn the_set_holds_what_the_records_cannot_separate() {
         let z = threshold(10);
         let c = mismatch(&nodes);
         let adm = adm_sorted(&nodes, z, c);
-        let set = ambiguity_set(&nodes, &adm, z, c);
+        let (set, parted) = ambiguity_set(&nodes, &adm, z, c);
+        assert!(parted.is_empty(), "{parted:?}");
         (adm, set)
     };
     let (adm, set) = set_of(plus(&noise, &apart, 0.3));
@@ -90,6 +91,51 @@ fn the_set_holds_what_the_records_cannot_separate() {
     // The low-pass misses the 8 records by 3 standard deviations: the delay alone.
     let (_, set) = set_of(plus(&noise, &miss, 0.5));
     assert_eq!(set, vec![d.clone()]);
+}
+
+/// Two effects that each remove most of a misfit (8 of 108 records off by 6 standard
+/// deviations) but part by 20 standard deviations elsewhere, the records lying halfway
+/// between them (each misses by 10 along that direction): they fit about equally, yet were
+/// either the truth the other would fit far worse. Not what the records cannot decide
+/// between: the set is the better alone, the other parted from it.
+#[test]
+fn structures_the_records_part_and_fit_equally_are_parted_not_ambiguous() {
+    let delay = Candidate::new(EffectKind::TimeDelay, Law::Only);
+    let lowpass = Candidate::new(EffectKind::SensorLowpass, Law::Only);
+    let root = Structure::root();
+    let (d, l) = (root.with(delay), root.with(lowpass));
+    let noise = normals(108, 41);
+    let miss: Vec<f64> = (0..108)
+        .map(|k| if k % 13 == 0 { 6.0 } else { 0.0 })
+        .collect();
+    let dir = normals(108, 42);
+    let norm = dir.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let unit: Vec<f64> = dir.iter().map(|x| x / norm).collect();
+    let set_of = |half: f64| {
+        let mut nodes = BTreeMap::new();
+        for (s, r) in [
+            (&root, plus(&plus(&noise, &miss, 1.0), &unit, half)),
+            (&d, plus(&noise, &unit, half)),
+            (&l, plus(&noise, &unit, -half)),
+        ] {
+            nodes.insert(s.clone(), node(s, r));
+        }
+        let z = threshold(10);
+        let c = mismatch(&nodes);
+        let adm = adm_sorted(&nodes, z, c);
+        assert!(adm.contains(&d) && adm.contains(&l), "{adm:?}");
+        ambiguity_set(&nodes, &adm, z, c)
+    };
+    let (set, parted) = set_of(10.0);
+    assert_eq!(set.len(), 1, "{set:?}");
+    assert_eq!(parted.len(), 1, "{parted:?}");
+    assert_eq!(parted[0].0, set[0]);
+    assert!(parted[0].1 == d || parted[0].1 == l);
+    assert_ne!(parted[0].1, set[0]);
+    // Parting by 1 standard deviation: the records cannot decide, both in the set.
+    let (set, parted) = set_of(0.5);
+    assert_eq!(set.len(), 2, "{set:?}");
+    assert!(parted.is_empty());
 }
 
 /// Two effects that each make the fit worse (8 records missed by 12 standard deviations
@@ -122,7 +168,7 @@ fn a_structure_no_better_than_one_inside_it_is_no_alternative() {
     let adm = adm_sorted(&nodes, z, c);
     assert!(adm.contains(&pair), "the pair beats both its parents");
     assert!(!compare(&nodes[&root].held, &nodes[&pair].held, c).better(z));
-    assert_eq!(ambiguity_set(&nodes, &adm, z, c), vec![root]);
+    assert_eq!(ambiguity_set(&nodes, &adm, z, c), (vec![root], Vec::new()));
 }
 
 /// A delay that removes the misfit is admissible while a fold's fit determines it (0.04 +-

@@ -1,6 +1,7 @@
 //! The diagnosis report's section on what the data cannot decide (the set of structures the
 //! records do not separate, each with its parameters, held-out error and what distinguishes
-//! it) and on what the final model leaves (the residual in words).
+//! it), on the structures the records part from one of the set yet fit no better, and on
+//! what the final model leaves (the residual in words).
 
 use super::esc;
 use std::fmt::Write as _;
@@ -42,6 +43,19 @@ pub fn section(d: &Diagnosis) -> String {
             );
         }
         h.push_str("</table>\n");
+    }
+    if !d.parted.is_empty() {
+        h.push_str(
+            "<h2>What the records part yet fit no better</h2>\n<p>Each of these structures \
+             predicts the held-out records about as well as one of the set, though the records \
+             part the two: were either the whole truth, the other would fit them far worse. \
+             Cox's test rejects both, so neither is the whole truth, and no new record is \
+             needed to tell them apart.</p>\n<ul>\n",
+        );
+        for p in &d.parted {
+            let _ = writeln!(h, "<li>{}</li>", esc(&p.words));
+        }
+        h.push_str("</ul>\n");
     }
     if !d.residual.is_empty() {
         h.push_str("<h2>What the final model leaves</h2>\n<ul>\n");

@@ -120,7 +120,11 @@ pub fn after_design(
         }
     };
     if d.records.is_empty() {
-        return AfterDesign::failed("design-next: no record within the limits helps");
+        return AfterDesign::failed(if d.decided() {
+            "design-next: the campaign separates the set already"
+        } else {
+            "design-next: no record within the limits helps"
+        });
     }
     let run = || -> anyhow::Result<Campaign> {
         let file = dir.join("design-next.toml");
