@@ -198,10 +198,11 @@ fn pct(a: f64, b: f64) -> String {
 
 /// The development range's measured unit times (`$ZMP_SCALE_DEV_DIR`, a complete `cargo xtask
 /// suite --range development` job): the cost model on 8, 64 and 256 workers, and what the
-/// static partition into 2 shards (balanced by the units' expected costs) costs against one
-/// process whose 2 threads share a queue in the same expected-cost order, both on the measured
-/// times (the sharding target's question for the suite itself, where the 5-draw rows above
-/// measure mostly the granularity of 5 units).
+/// static partition into 2 shards (balanced by today's expected costs of the units,
+/// `Class::expected_cost`) costs against one process whose 2 threads share a queue in the
+/// same expected-cost order, both on the measured times (the sharding target's question for
+/// the suite itself, where the 5-draw rows above measure mostly the granularity of 5
+/// units).
 fn dev_prediction(dir: &Path) -> String {
     let units = unit_times(dir);
     let job = zmp_shard::read_job(dir).expect("job.json of $ZMP_SCALE_DEV_DIR");
@@ -212,11 +213,19 @@ fn dev_prediction(dir: &Path) -> String {
         dir.display()
     );
     let time = |id: &str| units.iter().find(|u| u.0 == id).map_or(0.0, |u| u.1);
-    let static_2 = zmp_shard::partition(&job.units, 2)
+    // The job as a run would make it today (the job folder's costs are those of its day).
+    let (range, first) = zmp_suites::sharded::job_range(&job).expect("a suite job");
+    let (today, _) = zmp_suites::sharded::job(range, first).expect("the range's job");
+    assert_eq!(
+        today.units.len(),
+        job.units.len(),
+        "the range's draws changed"
+    );
+    let static_2 = zmp_shard::partition(&today.units, 2)
         .iter()
-        .map(|part| part.iter().map(|&k| time(&job.units[k].id)).sum::<f64>())
+        .map(|part| part.iter().map(|&k| time(&today.units[k].id)).sum::<f64>())
         .fold(0.0, f64::max);
-    let order: Vec<f64> = zmp_shard::lpt_order(&job.units)
+    let order: Vec<f64> = zmp_shard::lpt_order(&today.units)
         .into_iter()
         .map(|k| time(&job.units[k].id))
         .collect();

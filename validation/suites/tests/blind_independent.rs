@@ -271,7 +271,7 @@ fn check(outcomes: &[Outcome]) -> Vec<String> {
     );
     if s.closed.0 < s.closed.1 {
         bad.push(format!(
-            "in-catalogue draws not within 2x the floor after the loop: {:?}",
+            "in-catalogue draws within 2x the floor after the loop, fewer than all: {:?}",
             s.closed
         ));
     }
