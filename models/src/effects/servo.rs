@@ -151,7 +151,6 @@ mod tests {
     use crate::effect::{Binding, BuildContext, Effect};
     use crate::Axis;
 
-    /// The servo effect `kind` with parameter `value`, built for step `h`.
     /// The describing function's grid ([`periodic::STEPS_PER_PERIOD`]) against one 16 times
     /// finer, over the servo's nonlinear laws and the band: first harmonics within 3e-5 of
     /// their size (1.4e-5 measured: twice that, so a grid change that loses accuracy fails, a
@@ -212,6 +211,7 @@ mod tests {
         assert!(worst.0 > 0.0, "the finer grid changed nothing: no test");
     }
 
+    /// The servo effect `kind` with parameter `value`, built for step `h`.
     pub(super) fn limit(kind: crate::EffectKind, value: f64, h: f64) -> Box<dyn Effect> {
         let ctx = BuildContext {
             h,

@@ -68,7 +68,7 @@ impl Class {
     /// as run two at a time on the 2-core VM (build 77a39f7, `development-unit-times.csv`;
     /// test `expected_costs_are_the_development_means`): the mean, not the median, because a
     /// partition balances sums and the times have long tails (singles: median 6.8 s, mean
-    /// 41 s, a play's and a mode's loops and two draws at the 600 s limit).
+    /// 41 s: a play's and a mode's loops, and three draws at the 600 s limit).
     pub fn expected_cost(&self) -> f64 {
         match self {
             Class::Clean => 7.0,
