@@ -3,8 +3,8 @@
 //! 1-15 s on one thread), repeated and interleaved so the machine's load hits every variant
 //! alike:
 //!
-//! - **sharding overhead**: 2 shards at once (`--shard 1/2`, `--shard 2/2`, one thread each)
-//!   and the merge, against one process with 2 threads (target: within 10 %);
+//! - **sharding overhead**: 2 shards at once (`--shard 1/2 --steal`, `--shard 2/2 --steal`,
+//!   one thread each) and the merge, against one process with 2 threads (target: within 10 %);
 //! - **the Ray driver's overhead per unit**: `xtask/scale/ray_driver.py --shards 2` on a local
 //!   cluster against the same 2 shards run directly, per unit, the cluster's start reported
 //!   apart (target: under 1 s per unit);
@@ -12,8 +12,8 @@
 //!   one-thread run, against the measured wall time with 1 and 2 threads (target: within 15 %);
 //! - **a 300-draw suite on 8, 64 and 256 workers**: the cost model over the development
 //!   range's 300 measured unit times (a complete `cargo xtask suite --range development` job
-//!   folder in `$ZMP_SCALE_DEV_DIR`), and the suite as 2 static shards against one process's
-//!   shared queue on those times.
+//!   folder in `$ZMP_SCALE_DEV_DIR`), and the suite as 2 shards, static and stealing, against
+//!   one process's shared queue on those times.
 //!
 //! `cargo bench -p zmp-bench --bench scale` (not in `cargo xtask bench`: it needs the venv's
 //! `ray` and a few minutes). The binary is `$ZMP_XTASK_BIN`, else `<target>/release/xtask`;
@@ -72,7 +72,7 @@ fn suite(threads: usize, shard: Option<&str>, out: &Path) -> Command {
     ])
     .arg(out);
     if let Some(s) = shard {
-        c.args(["--shard", s]);
+        c.args(["--shard", s, "--steal"]);
     }
     c
 }
@@ -197,12 +197,12 @@ fn pct(a: f64, b: f64) -> String {
 }
 
 /// The development range's measured unit times (`$ZMP_SCALE_DEV_DIR`, a complete `cargo xtask
-/// suite --range development` job): the cost model on 8, 64 and 256 workers, and what the
-/// static partition into 2 shards (balanced by today's expected costs of the units,
-/// `Class::expected_cost`) costs against one process whose 2 threads share a queue in the
-/// same expected-cost order, both on the measured times (the sharding target's question for
-/// the suite itself, where the 5-draw rows above measure mostly the granularity of 5
-/// units).
+/// suite --range development` job): the cost model on 8, 64 and 256 workers, and what 2
+/// shards of the partition by today's expected costs (`Class::expected_cost`), each running
+/// its part only or stealing (`shard_sequence`), cost against one process whose 2 threads
+/// share a queue in the same expected-cost order, all on the measured times (the sharding
+/// target's question for the suite itself, where the 5-draw rows above measure mostly the
+/// granularity of 5 units).
 fn dev_prediction(dir: &Path) -> String {
     let units = unit_times(dir);
     let job = zmp_shard::read_job(dir).expect("job.json of $ZMP_SCALE_DEV_DIR");
@@ -225,13 +225,23 @@ fn dev_prediction(dir: &Path) -> String {
                 .all(|(a, b)| a.id == b.id),
         "the range's draws changed"
     );
-    let static_2 = zmp_shard::partition(&today.units, 2)
-        .iter()
-        .map(|part| part.iter().map(|&k| time(&today.units[k].id)).sum::<f64>())
-        .fold(0.0, f64::max);
+    let times: Vec<f64> = today.units.iter().map(|u| time(&u.id)).collect();
+    let shards = |steal: bool| -> f64 {
+        let seqs: Vec<Vec<usize>> = (1..=2)
+            .map(|i| {
+                let s = zmp_shard::Shard::new(i, 2).expect("shard");
+                zmp_shard::shard_sequence(&today.units, s, steal)
+                    .into_iter()
+                    .map(|(k, _)| k)
+                    .collect()
+            })
+            .collect();
+        zmp_shard::cost::shards_makespan(&seqs, &times)
+    };
+    let (static_2, steal_2) = (shards(false), shards(true));
     let order: Vec<f64> = zmp_shard::lpt_order(&today.units)
         .into_iter()
-        .map(|k| time(&today.units[k].id))
+        .map(|k| times[k])
         .collect();
     let queue_2 = zmp_shard::cost::list_makespan(&order, 2);
     let m = cost_model(&units, &[2, 8, 64, 256]);
@@ -253,12 +263,16 @@ fn dev_prediction(dir: &Path) -> String {
         ));
     }
     t.push_str(&format!(
-        "\nThe suite as 2 static shards (the partition by expected cost, each shard one \
-         thread) takes {} on those times, one process with 2 threads sharing its queue {}: {} \
-         (target: within 10 %). From 64 workers on the wall time is the longest draw's.\n",
-        zmp_shard::cost::human(static_2),
+        "\nOn those times, one process with 2 threads sharing its queue takes {}; the suite \
+         as 2 shards of one thread each (the partition by expected cost) {} ({}) when each \
+         runs its part only, {} ({}; target: within 10 %) when a shard done with its part \
+         takes the longest unit no shard has begun (`--steal`, the Ray driver's and the Slurm \
+         script's default). From 64 workers on the wall time is the longest draw's.\n",
         zmp_shard::cost::human(queue_2),
-        pct(static_2, queue_2)
+        zmp_shard::cost::human(static_2),
+        pct(static_2, queue_2),
+        zmp_shard::cost::human(steal_2),
+        pct(steal_2, queue_2),
     ));
     t
 }
@@ -289,7 +303,7 @@ fn main() {
         load.split_whitespace().next().unwrap_or("?")
     );
     t.push_str(&format!(
-        "| 2 shards at once + merge vs one process (2 threads) | {sh:.1} s vs {w2:.1} s | {} | within 10 % |\n",
+        "| 2 shards at once (`--steal`) + merge vs one process (2 threads) | {sh:.1} s vs {w2:.1} s | {} | within 10 % |\n",
         pct(sh, w2)
     ));
     if !s.ray_total.is_empty() {

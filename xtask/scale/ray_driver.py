@@ -4,9 +4,11 @@
 Each task runs the release xtask binary on its shard (`... --shard i/n`), which writes one
 result file per unit into the job folder; when every task is done the driver runs
 `xtask merge` on that folder and prints its output. A task whose worker dies (a killed
-process, a lost node) is retried by Ray (`--max-retries`); the retry runs the shard again and
-its units' files are replaced, so every unit is counted once. Each attempt leaves a file in
-OUT.ray-attempts beside the job folder, so the retries can be counted.
+process, a lost node) is retried by Ray (`--max-retries`); the retry runs the shard again,
+taking back the units the dead attempt had begun, so every unit is counted once. A shard that
+finishes its part early takes units of other parts that no shard has begun (xtask --steal;
+--no-steal turns it off). Each attempt leaves a file in OUT.ray-attempts beside the job
+folder, so the retries can be counted.
 
     python xtask/scale/ray_driver.py --shards 16 -- suite --range development --out /shared/dev
     python xtask/scale/ray_driver.py --address ray://head:10001 --shards 64 \
@@ -58,6 +60,12 @@ def parse_args(argv):
         default=3,
         help="times Ray re-runs a shard whose worker died (default %(default)s)",
     )
+    p.add_argument(
+        "--no-steal",
+        action="store_true",
+        help="run each shard's part only; by default a shard done early takes units of other "
+        "parts that no shard has begun (xtask --steal: each unit still runs once)",
+    )
     p.add_argument("--json", action="store_true", help="print the merge's JSON and the tasks' summary")
     p.add_argument("command", nargs=argparse.REMAINDER, help="-- xtask command and arguments")
     a = p.parse_args(argv)
@@ -66,8 +74,11 @@ def parse_args(argv):
         p.error("give the xtask command after --, e.g. -- suite --range ci --out DIR")
     if a.shards < 1:
         p.error("--shards must be at least 1")
-    if "--shard" in cmd or "--unit" in cmd:
-        p.error("the driver adds --shard itself; leave --shard and --unit out of the command")
+    if "--shard" in cmd or "--unit" in cmd or "--steal" in cmd:
+        p.error(
+            "the driver adds --shard and --steal itself; leave --shard, --steal and --unit out "
+            "of the command (--no-steal before -- turns stealing off)"
+        )
     if "--out" not in cmd or cmd.index("--out") + 1 >= len(cmd):
         p.error("the command needs --out DIR (the job folder the shards share)")
     a.command = cmd
@@ -89,8 +100,8 @@ def _die_with_parent():
         pass
 
 
-def run_shard(xtask, command, threads, index, count, attempts_dir):
-    """One Ray task: `xtask --threads K COMMAND --shard i/n --json`."""
+def run_shard(xtask, command, threads, index, count, attempts_dir, steal=True):
+    """One Ray task: `xtask --threads K COMMAND --shard i/n [--steal] --json`."""
     import socket
 
     attempts_dir = Path(attempts_dir)
@@ -99,7 +110,8 @@ def run_shard(xtask, command, threads, index, count, attempts_dir):
         json.dumps({"shard": f"{index}/{count}", "host": socket.gethostname(), "start": time.time()})
     )
     t = time.time()
-    argv = [xtask, "--threads", str(threads), *command, "--shard", f"{index}/{count}", "--json"]
+    argv = [xtask, "--threads", str(threads), *command, "--shard", f"{index}/{count}"]
+    argv += ["--steal", "--json"] if steal else ["--json"]
     p = subprocess.run(argv, capture_output=True, text=True, preexec_fn=_die_with_parent)
     try:
         ran = json.loads(p.stdout)
@@ -131,7 +143,7 @@ def main(argv):
     attempts = a.out.parent / f"{a.out.name}.ray-attempts"
     task = ray.remote(num_cpus=a.cpus_per_task, max_retries=a.max_retries)(run_shard)
     refs = [
-        task.remote(a.xtask, a.command, a.cpus_per_task, i, a.shards, str(attempts))
+        task.remote(a.xtask, a.command, a.cpus_per_task, i, a.shards, str(attempts), not a.no_steal)
         for i in range(1, a.shards + 1)
     ]
     results = []

@@ -19,6 +19,8 @@ pub struct CalibrateArgs {
     /// `--shard i/n` / `--unit ID`: part of the units into the job folder `out`.
     pub shard: Option<zmp_shard::Shard>,
     pub unit: Option<String>,
+    /// `--steal`: after its part, take other parts' units no shard has begun.
+    pub steal: bool,
 }
 
 fn abs(p: &Path) -> PathBuf {
@@ -45,6 +47,9 @@ pub fn calibrate_com(a: &CalibrateArgs) -> Result<()> {
     }
     if let Some(s) = a.shard {
         args.extend(["--shard".into(), s.to_string()]);
+    }
+    if a.steal {
+        args.push("--steal".into());
     }
     if let Some(u) = &a.unit {
         args.extend(["--unit".into(), u.clone()]);

@@ -28,6 +28,11 @@ pub struct FleetArgs {
     /// letters, digits, '.', '_', '-' replaced by '_').
     #[arg(long, value_name = "ID")]
     pub unit: Option<String>,
+    /// With --shard: when its part is done, take the units of the other parts that no shard
+    /// has begun (each unit still runs once; the shards must share OUT, as on a cluster's
+    /// shared file system: the Ray driver and the Slurm script pass it).
+    #[arg(long, requires = "shard")]
+    pub steal: bool,
     /// Wall-clock limit of each loop, in seconds (0: none), as `cargo xtask loop`.
     #[arg(long, value_name = "SECONDS", default_value_t = 900)]
     pub time_limit: u64,
@@ -131,7 +136,7 @@ fn run_unit(campaign: &Path, out: &Path, time_limit: u64) -> Result<Value> {
 pub fn fleet(a: FleetArgs) -> Result<()> {
     let (job, campaigns) = job(&a.campaigns, a.time_limit)?;
     let whole = a.shard.is_none() && a.unit.is_none();
-    let opts = run_options(a.shard, a.unit, false);
+    let opts = run_options(a.shard, a.unit, false, a.steal);
     let loops = a.out.join("loops");
     let r = run_part(&a.out, &job, &opts, a.json, |spec| {
         let (_, path) = campaigns

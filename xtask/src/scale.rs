@@ -31,6 +31,11 @@ pub struct SuiteArgs {
     /// Re-run one unit alone (e.g. `draw-17`, named by merge as failed or missing).
     #[arg(long, value_name = "ID")]
     pub unit: Option<String>,
+    /// With --shard: when its part is done, take the units of the other parts that no shard
+    /// has begun (each unit still runs once; the shards must share OUT, as on a cluster's
+    /// shared file system: the Ray driver and the Slurm script pass it).
+    #[arg(long, requires = "shard")]
+    pub steal: bool,
     /// Job folder: job.json, units/<id>.json (one per draw) and, after a merge, table.md,
     /// report.md and result.json. Shards of one job share it. A folder of another job is
     /// refused; for the held-out range, a folder of the same range is resumed (draws with a
@@ -59,12 +64,19 @@ pub struct MergeArgs {
 }
 
 /// Options of a run with `--shard` / `--unit` (`keep_done`: never run a unit with a result
-/// again); units run `--threads` at a time (default: every core).
-pub fn run_options(shard: Option<Shard>, unit: Option<String>, keep_done: bool) -> RunOptions {
+/// again; `steal`: take other parts' units after this one's); units run `--threads` at a time
+/// (default: every core).
+pub fn run_options(
+    shard: Option<Shard>,
+    unit: Option<String>,
+    keep_done: bool,
+    steal: bool,
+) -> RunOptions {
     RunOptions {
         shard: shard.unwrap_or(Shard::WHOLE),
         only: unit,
         keep_done,
+        steal,
         threads: zmp_campaign::par::budget(),
         quiet: false,
     }
@@ -74,7 +86,12 @@ pub fn run_options(shard: Option<Shard>, unit: Option<String>, keep_done: bool) 
 pub fn suite(a: SuiteArgs) -> Result<()> {
     let (job, cases) = sharded::job(a.range, a.first_seed)?;
     let whole = a.shard.is_none() && a.unit.is_none();
-    let opts = run_options(a.shard, a.unit, a.resume || a.range == Range::HeldOut);
+    let opts = run_options(
+        a.shard,
+        a.unit,
+        a.resume || a.range == Range::HeldOut,
+        a.steal,
+    );
     let r = run_part(&a.out, &job, &opts, a.json, |spec| {
         let case = cases
             .iter()

@@ -120,6 +120,19 @@ fn four_shards_by_the_slurm_array_script_merge_to_the_one_process_files() {
     for t in tasks {
         ok(t.wait_with_output().unwrap(), "array task");
     }
+    // Each unit was claimed by the task that ran it (a task done early takes other parts'
+    // units: the script passes --steal).
+    let mut claimed: Vec<String> = std::fs::read_dir(out.join("claims"))
+        .unwrap()
+        .map(|e| {
+            let text = std::fs::read_to_string(e.unwrap().path()).unwrap();
+            let c: serde_json::Value = serde_json::from_str(&text).unwrap();
+            c["shard"].as_str().unwrap().to_string()
+        })
+        .collect();
+    claimed.sort();
+    assert_eq!(claimed.len(), CI_UNITS.len(), "{claimed:?}");
+    assert!(claimed.iter().all(|s| s.ends_with("/4")), "{claimed:?}");
     // The same task again (a resubmitted shard): its units replaced, none added.
     ok(
         slurm_task("suite.sbatch", &cmd, Some((8, 5, 4))),
@@ -191,6 +204,28 @@ fn processes_with(words: &[&str]) -> Vec<u32> {
     out
 }
 
+/// The shards (`i/n`) holding a claim on a unit without a result in job folder `out`.
+fn begun_unfinished(out: &Path) -> Vec<String> {
+    let Ok(claims) = std::fs::read_dir(out.join("claims")) else {
+        return Vec::new();
+    };
+    claims
+        .flatten()
+        .filter_map(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let id = name
+                .strip_suffix(".json")
+                .filter(|_| !name.starts_with('.'))?;
+            if out.join("units").join(format!("{id}.json")).is_file() {
+                return None;
+            }
+            let claim: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(e.path()).ok()?).ok()?;
+            claim["shard"].as_str().map(String::from)
+        })
+        .collect()
+}
+
 fn parent(pid: u32) -> Option<u32> {
     let s = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
     s.lines()
@@ -225,22 +260,22 @@ fn ray_local_cluster_with_a_killed_worker_merges_to_the_one_process_files() {
         .stderr(std::fs::File::create(d.path().join("driver.err")).unwrap())
         .spawn()
         .unwrap();
-    // Shard 4/4 runs draw-209 then draw-210, one at a time (--cpus-per-task 1): once draw-209's
-    // file is written, kill the Ray worker running that shard, mid-run.
+    // As soon as a shard has begun a unit (its claim written, no result yet), kill the Ray
+    // worker running that shard, mid-unit. Every shard steals (the driver's default), so which
+    // shard runs which unit depends on timing: the claim says.
     let started = std::time::Instant::now();
-    let mut killed = None;
+    let mut killed: Option<String> = None;
     while killed.is_none() && started.elapsed().as_secs() < 600 {
-        if out.join("units/draw-209.json").is_file() {
-            let shard = processes_with(&[env!("CARGO_BIN_EXE_xtask"), "--shard", "4/4"]);
-            let worker = shard.first().and_then(|&p| parent(p));
-            let Some(worker) = worker else {
-                panic!("shard 4/4 ended before it could be killed (draw-210 took under 50 ms?)");
-            };
-            let k = Command::new("kill")
-                .args(["-9", &worker.to_string()])
-                .status();
-            assert!(k.unwrap().success());
-            killed = Some(worker);
+        for shard in begun_unfinished(&out) {
+            let procs = processes_with(&[env!("CARGO_BIN_EXE_xtask"), "--shard", &shard]);
+            if let Some(worker) = procs.first().and_then(|&p| parent(p)) {
+                let k = Command::new("kill")
+                    .args(["-9", &worker.to_string()])
+                    .status();
+                assert!(k.unwrap().success());
+                killed = Some(shard);
+                break;
+            }
         }
         if driver.try_wait().unwrap().is_some() {
             break;
@@ -249,12 +284,17 @@ fn ray_local_cluster_with_a_killed_worker_merges_to_the_one_process_files() {
     }
     let status = driver.wait().unwrap();
     let err = std::fs::read_to_string(d.path().join("driver.err")).unwrap();
-    assert!(killed.is_some(), "no worker was killed:\n{err}");
+    let Some(killed) = killed else {
+        panic!("no worker was killed:\n{err}");
+    };
     assert!(status.success(), "the driver failed:\n{err}");
-    // Shard 4 ran twice (the retry after the kill), every unit has one file, and the merge is
-    // the one-process run's.
+    // The killed shard ran twice (the retry took back the unit it had begun), every unit has
+    // one file, and the merge is the one-process run's.
+    let (i, n) = killed.split_once('/').unwrap();
     assert!(
-        err.contains("re-run after a worker died: {'shard-4-of-4': 2}"),
+        err.contains(&format!(
+            "re-run after a worker died: {{'shard-{i}-of-{n}': 2}}"
+        )),
         "{err}"
     );
     let attempts = std::fs::read_dir(d.path().join("job.ray-attempts"))

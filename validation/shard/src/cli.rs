@@ -42,6 +42,7 @@ pub fn run_part(
             "{}",
             serde_json::to_string_pretty(&json!({
                 "job": out, "part": what, "ran": r.ran, "failed": r.failed, "kept": r.kept,
+                "taken": r.taken, "left": r.left,
             }))?
         );
     }
@@ -51,15 +52,21 @@ pub fn run_part(
 /// After a part: the next step (merge), or an error naming the units that failed.
 pub fn finish_part(out: &Path, r: &ShardRun, json_out: bool) -> Result<()> {
     if !json_out {
+        let mut also = String::new();
+        if !r.kept.is_empty() {
+            also.push_str(&format!(", kept {}", r.kept.len()));
+        }
+        if !r.taken.is_empty() || !r.left.is_empty() {
+            also.push_str(&format!(
+                ", {} from other parts, {} of its own left to other shards",
+                r.taken.len(),
+                r.left.len()
+            ));
+        }
         println!(
-            "ran {} units ({} failed){}; when every shard is done: cargo xtask merge {}",
+            "ran {} units ({} failed){also}; when every shard is done: cargo xtask merge {}",
             r.ran.len(),
             r.failed.len(),
-            if r.kept.is_empty() {
-                String::new()
-            } else {
-                format!(", kept {}", r.kept.len())
-            },
             out.display()
         );
     }

@@ -47,6 +47,9 @@ pub struct Collected {
     pub missing: Vec<String>,
     /// Result files of units the job does not have (left out of the merge).
     pub unknown: Vec<String>,
+    /// Of the missing units, those a shard has claimed ([`crate::claim`]): begun, not finished
+    /// (that shard's process stopped, or still runs). Unit id and claim.
+    pub begun: Vec<(String, crate::claim::Claim)>,
 }
 
 /// Reads the job and every unit file of `dir`.
@@ -93,6 +96,7 @@ pub fn collect(dir: &Path) -> Result<Collected> {
         failed: Vec::new(),
         missing: Vec::new(),
         unknown: Vec::new(),
+        begun: Vec::new(),
     };
     for spec in &job.units {
         match files.remove(&spec.id) {
@@ -118,6 +122,11 @@ pub fn collect(dir: &Path) -> Result<Collected> {
         }
     }
     c.unknown = files.into_keys().collect();
+    c.begun = c
+        .missing
+        .iter()
+        .filter_map(|id| crate::claim::read_claim(dir, id).map(|cl| (id.clone(), cl)))
+        .collect();
     check_one_build(dir, &c.done)?;
     Ok(c)
 }
@@ -159,6 +168,8 @@ pub struct UnitsSummary {
     pub missing: Vec<String>,
     /// Ids of result files the job does not list.
     pub unknown: Vec<String>,
+    /// Missing units a shard has begun (claimed): unit id and the shard that claimed it.
+    pub begun: BTreeMap<String, String>,
 }
 
 impl Collected {
@@ -200,6 +211,11 @@ impl Collected {
             failed: self.failed.clone(),
             missing: self.missing.clone(),
             unknown: self.unknown.clone(),
+            begun: self
+                .begun
+                .iter()
+                .map(|(id, c)| (id.clone(), c.shard.clone()))
+                .collect(),
         }
     }
 
@@ -224,6 +240,13 @@ impl Collected {
                 } else {
                     String::new()
                 }
+            ));
+        }
+        for (id, claim) in &self.begun {
+            s.push_str(&format!(
+                "unit {id} was begun by shard {} (process {}) and has no result: that shard \
+                 stopped (or still runs); running shard {} again takes its units back\n",
+                claim.shard, claim.process, claim.shard
             ));
         }
         if !self.unknown.is_empty() {

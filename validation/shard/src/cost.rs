@@ -30,6 +30,33 @@ pub fn list_makespan(times: &[f64], workers: usize) -> f64 {
     load.into_iter().fold(0.0, f64::max)
 }
 
+/// Makespan of shards that each take, one unit at a time, the next unit of their own
+/// sequence (`seqs[i]`: unit indices into `times`, seconds) that no shard has taken yet: the
+/// claims of `--steal` ([`crate::shard_sequence`]), or a static partition when the sequences
+/// are disjoint. A shard that comes free first chooses first (ties: the lower shard).
+pub fn shards_makespan(seqs: &[Vec<usize>], times: &[f64]) -> f64 {
+    let mut clock = vec![0.0_f64; seqs.len()];
+    let mut next = vec![0_usize; seqs.len()];
+    let mut active: Vec<bool> = vec![true; seqs.len()];
+    let mut taken = vec![false; times.len()];
+    while let Some(i) = (0..seqs.len())
+        .filter(|&i| active[i])
+        .min_by(|&a, &b| clock[a].total_cmp(&clock[b]).then(a.cmp(&b)))
+    {
+        while next[i] < seqs[i].len() && taken[seqs[i][next[i]]] {
+            next[i] += 1;
+        }
+        match seqs[i].get(next[i]) {
+            Some(&k) => {
+                taken[k] = true;
+                clock[i] += times[k];
+            }
+            None => active[i] = false,
+        }
+    }
+    clock.into_iter().fold(0.0, f64::max)
+}
+
 /// The longest unit.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CriticalPath {
@@ -139,6 +166,22 @@ mod tests {
         assert_eq!(lpt_makespan(&[], 4), 0.0);
         // Equal units: ceil(n / w) of them per worker.
         assert_eq!(lpt_makespan(&[1.0; 10], 4), 3.0);
+    }
+
+    #[test]
+    fn stealing_shards_match_a_schedule_worked_by_hand() {
+        // Expected costs put {0, 3} in shard 1 and {1, 2} in shard 2 (units 0..4); measured,
+        // unit 0 takes 10 s and the rest 1 s. Static: shard 1 ends at 11, shard 2 at 2.
+        let times = [10.0, 1.0, 1.0, 1.0];
+        let parts = vec![vec![0, 3], vec![1, 2]];
+        assert_eq!(shards_makespan(&parts, &times), 11.0);
+        // Stealing (own part, then the rest in order 0, 1, 2, 3): shard 2 runs 1 and 2, then
+        // takes 3 at t = 2 while shard 1 runs 0 until 10: makespan 10.
+        let steal = vec![vec![0, 3, 1, 2], vec![1, 2, 0, 3]];
+        assert_eq!(shards_makespan(&steal, &times), 10.0);
+        // One shard holding every unit: their sum; no shards: nothing.
+        assert_eq!(shards_makespan(&[vec![0, 1, 2, 3]], &times), 13.0);
+        assert_eq!(shards_makespan(&[], &times), 0.0);
     }
 
     #[test]

@@ -1,6 +1,6 @@
 //! A job folder and running a shard of it.
 
-use crate::partition::{check_units, lpt_order, shard_units};
+use crate::partition::{check_units, lpt_order, shard_sequence};
 use crate::unit::{read_unit, unit_path, write_unit, Status, UnitResult};
 use crate::{Shard, UnitSpec};
 use anyhow::{bail, Context, Result};
@@ -159,6 +159,9 @@ pub struct RunOptions {
     /// Leave units that already have a result without error (a held-out range is resumed, never
     /// run twice).
     pub keep_done: bool,
+    /// After its part, take the units of other parts no shard has claimed (`--steal`: the
+    /// shards share the job folder; see [`crate::claim`]).
+    pub steal: bool,
     /// Units run at once inside this process.
     pub threads: usize,
     /// No progress lines on standard error.
@@ -174,6 +177,10 @@ pub struct ShardRun {
     pub failed: Vec<String>,
     /// Units left as they were ([`RunOptions::keep_done`]).
     pub kept: Vec<String>,
+    /// Of the units run, those of other shards' parts ([`RunOptions::steal`]).
+    pub taken: Vec<String>,
+    /// Units of this shard's part another shard had claimed (it runs or ran them).
+    pub left: Vec<String>,
 }
 
 fn panic_text(p: &(dyn std::any::Any + Send)) -> String {
@@ -183,17 +190,10 @@ fn panic_text(p: &(dyn std::any::Any + Send)) -> String {
         .unwrap_or_else(|| "a panic without a message".into())
 }
 
-/// Runs the units of `opts.shard` (or the one unit `opts.only`) of a job whose folder
-/// [`open_job`] opened, longest expected first, `opts.threads` at a time, and writes each
-/// one's result file as soon as it ends. A unit's error or panic is its failed result;
-/// nothing else is affected. Errors: an unknown `--unit`, a result file that cannot be written.
-pub fn run_units(
-    dir: &Path,
-    job: &Job,
-    opts: &RunOptions,
-    run: impl Fn(&UnitSpec) -> Result<Value> + Sync,
-) -> Result<ShardRun> {
-    let mut picked: Vec<usize> = match &opts.only {
+/// The units a run considers, in order, each with whether it is the run's own (not taken from
+/// another shard's part).
+fn pick(dir: &Path, job: &Job, opts: &RunOptions) -> Result<Vec<(usize, bool)>> {
+    Ok(match &opts.only {
         Some(id) => {
             let k = job
                 .units
@@ -212,43 +212,83 @@ pub fn run_units(
                         if job.units.len() > 5 { ", ..." } else { "" }
                     )
                 })?;
-            vec![k]
+            vec![(k, true)]
         }
-        None if opts.shard == Shard::WHOLE => lpt_order(&job.units),
-        None => shard_units(&job.units, opts.shard),
-    };
+        None if opts.shard == Shard::WHOLE => lpt_order(&job.units)
+            .into_iter()
+            .map(|k| (k, true))
+            .collect(),
+        None => shard_sequence(&job.units, opts.shard, opts.steal),
+    })
+}
+
+/// With `keep_done`, leaves out the units that have a result without error (into `kept`),
+/// refusing a folder whose results another build wrote.
+fn leave_done(
+    dir: &Path,
+    job: &Job,
+    picked: &mut Vec<(usize, bool)>,
+    kept: &mut Vec<String>,
+) -> Result<()> {
+    let build = crate::unit::build_id();
+    let mut other: Vec<String> = Vec::new();
+    picked.retain(|&(k, own)| {
+        let id = &job.units[k].id;
+        let r = read_unit(&unit_path(dir, id)).ok().filter(|r| r.is_ok());
+        if let Some(r) = &r {
+            if !r.build.is_empty() && r.build != build {
+                other.push(format!("{id} (build {})", r.build));
+            }
+            if own {
+                kept.push(id.clone());
+            }
+        }
+        r.is_none()
+    });
+    if !other.is_empty() {
+        bail!(
+            "{}: {} units have results from another build than this one ({build}): {}{}; \
+             a resumed job runs on the build that began it (the same binary), or its table \
+             would mix two versions of the code. Run that binary, or choose a new folder",
+            dir.display(),
+            other.len(),
+            other.iter().take(3).cloned().collect::<Vec<_>>().join(", "),
+            if other.len() > 3 { ", ..." } else { "" }
+        );
+    }
+    Ok(())
+}
+
+/// Runs the units of `opts.shard` (or the one unit `opts.only`) of a job whose folder
+/// [`open_job`] opened, longest expected first, `opts.threads` at a time, and writes each
+/// one's result file as soon as it ends; with `opts.steal`, then the units of other parts that
+/// no shard has claimed. A shard claims each unit before it runs it ([`crate::claim`]) and
+/// leaves the units another shard has claimed; the whole job and `--unit` run without claims.
+/// A unit's error or panic is its failed result; nothing else is affected. Errors: an unknown
+/// `--unit`, a claim or a result file that cannot be written.
+pub fn run_units(
+    dir: &Path,
+    job: &Job,
+    opts: &RunOptions,
+    run: impl Fn(&UnitSpec) -> Result<Value> + Sync,
+) -> Result<ShardRun> {
+    let mut picked = pick(dir, job, opts)?;
     let mut out = ShardRun::default();
     // Read before any unit runs: the executable may be rebuilt while they do.
-    let build = crate::unit::build_id();
+    let _ = crate::unit::build_id();
     if opts.keep_done {
-        let mut other: Vec<String> = Vec::new();
-        picked.retain(|&k| {
-            let id = &job.units[k].id;
-            let r = read_unit(&unit_path(dir, id)).ok().filter(|r| r.is_ok());
-            if let Some(r) = &r {
-                if !r.build.is_empty() && r.build != build {
-                    other.push(format!("{id} (build {})", r.build));
-                }
-                out.kept.push(id.clone());
-            }
-            r.is_none()
-        });
-        if !other.is_empty() {
-            bail!(
-                "{}: {} units have results from another build than this one ({build}): {}{}; \
-                 a resumed job runs on the build that began it (the same binary), or its table \
-                 would mix two versions of the code. Run that binary, or choose a new folder",
-                dir.display(),
-                other.len(),
-                other.iter().take(3).cloned().collect::<Vec<_>>().join(", "),
-                if other.len() > 3 { ", ..." } else { "" }
-            );
-        }
+        leave_done(dir, job, &mut picked, &mut out.kept)?;
     }
-    let total = picked.len();
+    let claims = opts.only.is_none() && opts.shard != Shard::WHOLE;
+    let total = picked.iter().filter(|p| p.1).count();
     let finished = std::sync::atomic::AtomicUsize::new(0);
-    let results = zmp_campaign::par::parallel_map(total, opts.threads, |k| {
-        let spec = &job.units[picked[k]];
+    let stolen = std::sync::atomic::AtomicUsize::new(0);
+    let results = zmp_campaign::par::parallel_map(picked.len(), opts.threads, |k| {
+        let (index, own) = picked[k];
+        let spec = &job.units[index];
+        if claims && !crate::claim::claim(dir, &spec.id, opts.shard, own)? {
+            return Ok((spec.id.clone(), own, None));
+        }
         let t = Instant::now();
         let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(spec)));
         let wall_s = t.elapsed().as_secs_f64();
@@ -263,203 +303,45 @@ pub fn run_units(
         };
         let result = UnitResult::new(&spec.id, wall_s, status);
         let written = write_unit(dir, &result);
-        let n = finished.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
         if !opts.quiet {
+            use std::sync::atomic::Ordering::Relaxed;
+            let (n, whose) = if own {
+                (
+                    format!("{}/{total}", finished.fetch_add(1, Relaxed) + 1),
+                    "",
+                )
+            } else {
+                (
+                    format!("+{}", stolen.fetch_add(1, Relaxed) + 1),
+                    ", from another shard",
+                )
+            };
             match &result.status {
-                Status::Ok { .. } => eprintln!("[{n}/{total}] {} ok ({wall_s:.1} s)", spec.id),
+                Status::Ok { .. } => eprintln!("[{n}] {} ok ({wall_s:.1} s{whose})", spec.id),
                 Status::Failed { error } => {
-                    eprintln!("[{n}/{total}] {} FAILED ({wall_s:.1} s): {error}", spec.id)
+                    eprintln!("[{n}] {} FAILED ({wall_s:.1} s{whose}): {error}", spec.id)
                 }
             }
         }
-        written.map(|()| (spec.id.clone(), result.is_ok()))
+        written.map(|()| (spec.id.clone(), own, Some(result.is_ok())))
     });
     for r in results {
-        let (id, ok) = r?;
-        if !ok {
-            out.failed.push(id.clone());
+        match r? {
+            (id, true, None) => out.left.push(id),
+            (_, false, None) => {}
+            (id, own, Some(ok)) => {
+                if !ok {
+                    out.failed.push(id.clone());
+                }
+                if !own {
+                    out.taken.push(id.clone());
+                }
+                out.ran.push(id);
+            }
         }
-        out.ran.push(id);
     }
     Ok(out)
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::unit::UNITS_DIR;
-
-    fn job(n: usize) -> Job {
-        let units = (0..n)
-            .map(|k| UnitSpec::new(format!("u{k}"), 1.0 + k as f64))
-            .collect();
-        Job::new(JobKind::Suite, serde_json::json!({"range": "test"}), units).unwrap()
-    }
-
-    fn opts(shard: Shard) -> RunOptions {
-        RunOptions {
-            shard,
-            only: None,
-            keep_done: false,
-            threads: 2,
-            quiet: true,
-        }
-    }
-
-    #[test]
-    fn shards_write_each_unit_once_and_a_rerun_replaces_only_its_own() {
-        let d = tempfile::tempdir().unwrap();
-        let dir = d.path().join("job");
-        let j = job(7);
-        open_job(&dir, &j).unwrap();
-        let calls = std::sync::Mutex::new(Vec::new());
-        let run = |u: &UnitSpec| -> Result<Value> {
-            calls.lock().unwrap().push(u.id.clone());
-            if u.id == "u3" {
-                bail!("bad campaign");
-            }
-            if u.id == "u5" {
-                panic!("index out of range");
-            }
-            Ok(serde_json::json!({"id": u.id}))
-        };
-        let mut ran = Vec::new();
-        for i in 1..=3 {
-            let r = run_units(&dir, &j, &opts(Shard::new(i, 3).unwrap()), run).unwrap();
-            ran.extend(r.ran);
-        }
-        ran.sort();
-        assert_eq!(ran.len(), 7);
-        ran.dedup();
-        assert_eq!(ran.len(), 7, "a unit ran in two shards");
-        let files = std::fs::read_dir(dir.join(UNITS_DIR)).unwrap().count();
-        assert_eq!(files, 7);
-        let u3 = read_unit(&unit_path(&dir, "u3")).unwrap();
-        assert_eq!(
-            u3.status,
-            Status::Failed {
-                error: "bad campaign".into()
-            }
-        );
-        let u5 = read_unit(&unit_path(&dir, "u5")).unwrap();
-        assert!(
-            matches!(&u5.status, Status::Failed { error } if error.contains("panicked: index")),
-            "{u5:?}"
-        );
-        // One unit alone, then a shard again: files replaced, none added.
-        let before = std::fs::read(unit_path(&dir, "u0")).unwrap();
-        calls.lock().unwrap().clear();
-        let one = RunOptions {
-            only: Some("u3".into()),
-            ..opts(Shard::WHOLE)
-        };
-        let r = run_units(&dir, &j, &one, |u| Ok(serde_json::json!({"id": u.id}))).unwrap();
-        assert_eq!(r.ran, vec!["u3".to_string()]);
-        assert!(read_unit(&unit_path(&dir, "u3")).unwrap().is_ok());
-        assert_eq!(std::fs::read(unit_path(&dir, "u0")).unwrap(), before);
-        // Resuming with keep_done runs only what has no good result (u5).
-        let resume = RunOptions {
-            keep_done: true,
-            ..opts(Shard::WHOLE)
-        };
-        let r = run_units(&dir, &j, &resume, |u| Ok(serde_json::json!({"id": u.id}))).unwrap();
-        assert_eq!(r.ran, vec!["u5".to_string()]);
-        assert_eq!(r.kept.len(), 6);
-        assert_eq!(std::fs::read_dir(dir.join(UNITS_DIR)).unwrap().count(), 7);
-        let bad = RunOptions {
-            only: Some("nope".into()),
-            ..opts(Shard::WHOLE)
-        };
-        let e = run_units(&dir, &j, &bad, run).unwrap_err().to_string();
-        assert!(e.contains("--unit nope: no such unit"), "{e}");
-    }
-
-    /// Units of another build: a resumed run refuses the folder, keeping its results; a
-    /// merge refuses to mix them with this build's; older files without a build count as none.
-    #[test]
-    fn one_job_holds_the_results_of_one_build() {
-        let d = tempfile::tempdir().unwrap();
-        let dir = d.path().join("job");
-        let j = job(3);
-        open_job(&dir, &j).unwrap();
-        let ok = |u: &UnitSpec| Ok(serde_json::json!({"id": u.id}));
-        run_units(&dir, &j, &opts(Shard::WHOLE), ok).unwrap();
-        let this = crate::unit::build_id();
-        assert_eq!(this.len(), 16, "{this:?}");
-        assert!(crate::collect(&dir).is_ok());
-        let mut u1 = read_unit(&unit_path(&dir, "u1")).unwrap();
-        assert_eq!(u1.build, this);
-        u1.build = "0123456789abcdef".into();
-        write_unit(&dir, &u1).unwrap();
-        let resume = RunOptions {
-            keep_done: true,
-            ..opts(Shard::WHOLE)
-        };
-        let e = run_units(&dir, &j, &resume, ok).unwrap_err().to_string();
-        assert!(e.contains("u1 (build 0123456789abcdef)"), "{e}");
-        assert!(e.contains(&format!("than this one ({this})")), "{e}");
-        assert_eq!(
-            read_unit(&unit_path(&dir, "u1")).unwrap(),
-            u1,
-            "kept as it was"
-        );
-        let e = format!("{:#}", crate::collect(&dir).unwrap_err());
-        assert!(e.contains("ran on 2 builds"), "{e}");
-        assert!(
-            e.contains("build 0123456789abcdef: 1 units (first u1)"),
-            "{e}"
-        );
-        // A file from before builds were recorded: neither refused nor counted.
-        u1.build.clear();
-        write_unit(&dir, &u1).unwrap();
-        let r = run_units(&dir, &j, &resume, ok).unwrap();
-        assert_eq!(r.kept.len(), 3);
-        assert!(crate::collect(&dir).is_ok());
-        let text = std::fs::read_to_string(unit_path(&dir, "u1")).unwrap();
-        let old: UnitResult = serde_json::from_str(&text.replace("\"build\": \"\",", "")).unwrap();
-        assert_eq!(old.build, "");
-    }
-
-    #[test]
-    fn a_folder_holds_one_job() {
-        let d = tempfile::tempdir().unwrap();
-        let dir = d.path().join("job");
-        open_job(&dir, &job(3)).unwrap();
-        // The same job again (another shard, a resume): accepted.
-        open_job(&dir, &job(3)).unwrap();
-        let e = open_job(&dir, &job(4)).unwrap_err().to_string();
-        assert!(e.contains("holds another job"), "{e}");
-        // A folder the toolkit did not write is refused.
-        let mine = d.path().join("mine");
-        std::fs::create_dir(&mine).unwrap();
-        std::fs::write(mine.join("notes.txt"), "x").unwrap();
-        let e = open_job(&mine, &job(3)).unwrap_err().to_string();
-        assert!(e.contains("not written by zmp-toolkit"), "{e}");
-        assert_eq!(read_job(&dir).unwrap(), job(3));
-    }
-
-    #[test]
-    fn shards_starting_at_once_all_join_a_new_folder() {
-        // The race of an array job's tasks: every shard sees a missing (or just made) folder.
-        for round in 0..100 {
-            let d = tempfile::tempdir().unwrap();
-            let dir = d.path().join("job");
-            let results: Vec<Result<()>> = std::thread::scope(|s| {
-                let hs: Vec<_> = (0..8)
-                    .map(|_| s.spawn(|| open_job(&dir, &job(5))))
-                    .collect();
-                hs.into_iter().map(|h| h.join().unwrap()).collect()
-            });
-            for r in results {
-                r.unwrap_or_else(|e| panic!("round {round}: {e:#}"));
-            }
-            assert_eq!(read_job(&dir).unwrap(), job(5));
-        }
-        // A folder holding only a stale temporary file still is not the toolkit's after the wait
-        // (checked without the wait: a non-temporary file ends it at once).
-        let d = tempfile::tempdir().unwrap();
-        std::fs::write(d.path().join(".tmp-x"), "x").unwrap();
-        std::fs::write(d.path().join("y"), "y").unwrap();
-        assert!(!being_claimed(d.path()));
-    }
-}
+mod tests;

@@ -23,6 +23,7 @@
 
 #![warn(missing_docs)]
 
+pub mod claim;
 pub mod cli;
 pub mod collect;
 pub mod cost;
@@ -32,4 +33,4 @@ pub mod unit;
 
 pub use collect::{collect, Collected, Merged};
 pub use job::{open_job, read_job, run_units, Job, JobKind, RunOptions, ShardRun};
-pub use partition::{lpt_order, partition, shard_units, Shard, UnitSpec};
+pub use partition::{lpt_order, partition, shard_sequence, shard_units, Shard, UnitSpec};

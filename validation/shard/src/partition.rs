@@ -142,6 +142,26 @@ pub fn shard_units(units: &[UnitSpec], shard: Shard) -> Vec<usize> {
     partition(units, shard.count()).swap_remove(shard.index() - 1)
 }
 
+/// The units `shard` takes, in the order it takes them, each with whether it is in the shard's
+/// own part: its part (longest expected first), then, with `steal`, the units of the other
+/// parts in longest-processing-time-first order (those no other shard has claimed yet, when it
+/// gets to them: [`crate::claim`]). A shard that finishes its part early takes the longest unit
+/// left anywhere, as a thread of one process's pool takes the next in its queue.
+pub fn shard_sequence(units: &[UnitSpec], shard: Shard, steal: bool) -> Vec<(usize, bool)> {
+    let own = shard_units(units, shard);
+    let mut seq: Vec<(usize, bool)> = own.iter().map(|&k| (k, true)).collect();
+    if steal {
+        let mine: std::collections::BTreeSet<usize> = own.into_iter().collect();
+        seq.extend(
+            lpt_order(units)
+                .into_iter()
+                .filter(|k| !mine.contains(k))
+                .map(|k| (k, false)),
+        );
+    }
+    seq
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -201,6 +221,27 @@ mod tests {
                 assert_eq!(shard_units(&u, s), partition(&u, n)[i - 1]);
             }
         }
+    }
+
+    #[test]
+    fn a_stealing_shard_takes_its_part_then_the_rest_longest_first() {
+        let u = units(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        let s = Shard::new(2, 2).unwrap();
+        assert_eq!(
+            shard_sequence(&u, s, false),
+            vec![(4, true), (3, true), (0, true)]
+        );
+        assert_eq!(
+            shard_sequence(&u, s, true),
+            vec![
+                (4, true),
+                (3, true),
+                (0, true),
+                (5, false),
+                (2, false),
+                (1, false)
+            ]
+        );
     }
 
     #[test]

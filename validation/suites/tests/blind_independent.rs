@@ -311,6 +311,7 @@ fn suite_job(range: Range, first_seed: Option<u64>) -> (Vec<Outcome>, String, Op
                 shard: zmp_shard::Shard::WHOLE,
                 only: None,
                 keep_done: false,
+                steal: false,
                 threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
                 quiet: false,
             };

@@ -51,6 +51,8 @@ fn three_shards_merge_to_the_one_process_tables_and_figures() {
         ]),
         "one-process run",
     );
+    // One after the other with --steal: shard 1 runs its part, then takes every unit of the
+    // others; shards 2 and 3 find their units claimed and run none.
     for i in 1..=3 {
         let s = format!("{i}/3");
         let args = [
@@ -59,10 +61,19 @@ fn three_shards_merge_to_the_one_process_tables_and_figures() {
             "--quick",
             "--shard",
             &s,
+            "--steal",
             "--out",
             j,
         ];
-        ok(twin(&args), "shard");
+        let said = ok(twin(&args), "shard");
+        if i == 1 {
+            assert!(said.contains("ran 6 units (0 failed), "), "{said}");
+        } else {
+            assert!(
+                said.contains("ran 0 units (0 failed), 0 from other parts"),
+                "{said}"
+            );
+        }
     }
     let units = std::fs::read_dir(job.join("units")).unwrap().count();
     assert_eq!(

@@ -43,6 +43,11 @@ pub struct CalibrateComCmd {
     /// Run one unit alone into the job folder OUT (one merge named as failed or missing).
     #[arg(long, value_name = "ID", conflicts_with_all = ["figures", "markdown"])]
     unit: Option<String>,
+    /// With --shard: when its part is done, take the units of the other parts that no shard
+    /// has begun (each unit still runs once; the shards must share OUT, as on a cluster's
+    /// shared file system: the Ray driver and the Slurm script pass it).
+    #[arg(long, requires = "shard")]
+    steal: bool,
 }
 
 impl CalibrateComCmd {
@@ -59,6 +64,7 @@ impl CalibrateComCmd {
             force,
             shard,
             unit,
+            steal,
         } = self;
         calibrate::calibrate_com(&calibrate::CalibrateArgs {
             out,
@@ -71,6 +77,7 @@ impl CalibrateComCmd {
             force,
             shard,
             unit,
+            steal,
         })
     }
 }

@@ -51,6 +51,11 @@ pub enum SabianCommand {
         /// Run one unit alone into the job folder OUT (one a merge named as failed or missing).
         #[arg(long, value_name = "ID", conflicts_with_all = ["figures", "markdown"])]
         unit: Option<String>,
+        /// With --shard: when its part is done, take the units of the other parts that no shard
+        /// has begun (each unit still runs once; the shards must share OUT, as on a cluster's
+        /// shared file system: the Ray driver and the Slurm script pass it).
+        #[arg(long, requires = "shard")]
+        steal: bool,
     },
     /// Merge a `calibrate-com --shard` job folder: com-calibration.toml, report.html, the
     /// figures and tables.md (the --markdown tables), as the one-process run writes them.
@@ -77,6 +82,7 @@ pub fn run(cmd: SabianCommand) -> Result<()> {
             force,
             shard,
             unit,
+            steal,
         } => {
             let mut opt = if quick {
                 Options::quick()
@@ -96,7 +102,7 @@ pub fn run(cmd: SabianCommand) -> Result<()> {
                 opt.draws = d;
             }
             if shard.is_some() || unit.is_some() {
-                return run_part(&out, &opt, quick, shard, unit, json);
+                return run_part(&out, &opt, quick, (shard, steal), unit, json);
             }
             check_out(&out, force)?;
             let started = std::time::Instant::now();
@@ -150,7 +156,7 @@ fn run_part(
     out: &std::path::Path,
     opt: &Options,
     quick: bool,
-    shard: Option<zmp_shard::Shard>,
+    (shard, steal): (Option<zmp_shard::Shard>, bool),
     unit: Option<String>,
     json: bool,
 ) -> Result<()> {
@@ -159,6 +165,7 @@ fn run_part(
         shard: shard.unwrap_or(zmp_shard::Shard::WHOLE),
         only: unit,
         keep_done: false,
+        steal,
         threads: opt.threads,
         quiet: false,
     };
