@@ -43,6 +43,15 @@
 //! against the same threshold: both tests at level `alpha/m` must reject, so their
 //! intersection is a test at that level too (Berger's intersection-union test).
 //!
+//! **Nuisance parameters.** A few components are not held out: a record's own trend under a
+//! drift per record (a sensor re-zeroed at every record), whose rate no other record predicts,
+//! is fitted on that record itself (`HeldOut::nuisance` counts them). Where the better-fitting
+//! structure has `k` such parameters more than the other, the likelihood-ratio side is the
+//! test of `k` added parameters at the same level, `P(chi2_k > D / c) < alpha / m`, through the
+//! normal deviate of `D / c` on `k` degrees of freedom (Wilson and Hilferty); the mismatch
+//! factor counts only the components held out. Against a structure with one rate, this is
+//! Cochran's test of heterogeneity of the records' trends.
+//!
 //! **Neither.** Cox's test, centred on each hypothesis in turn, also says when the records
 //! reject both: if A were the whole truth, `D` would be `|delta|^2` give or take
 //! `2 sqrt(c) |delta|`; if B were, `-|delta|^2`. So
@@ -128,6 +137,10 @@ pub struct HeldOut {
     pub chi2: f64,
     /// The campaign's held-out error (RMS over records of the error measure).
     pub error: f64,
+    /// Residual components fitted on the record they belong to rather than held out: a
+    /// record's own trend under a per-record drift (a nuisance parameter each; [`compare`]
+    /// counts them as degrees of freedom).
+    pub nuisance: usize,
 }
 
 impl HeldOut {
@@ -143,9 +156,14 @@ impl HeldOut {
             };
             obs.len()
         ];
+        let mut nuisance = 0;
         for (f, spec) in fits.iter().enumerate() {
             let (_, test) = split(obs, f);
             let recs: Vec<&Observation> = test.iter().map(|&k| obs[k]).collect();
+            let own = (0..2)
+                .filter(|&i| crate::profiles::drift_per_record(spec, i))
+                .count();
+            nuisance += own * recs.len();
             let p = predict(spec, &recs).ok()?;
             for ((&k, o), pr) in test.iter().zip(&recs).zip(&p) {
                 whitened(o, pr, &mut residuals[k]);
@@ -161,6 +179,7 @@ impl HeldOut {
             residuals,
             chi2s,
             scores,
+            nuisance,
         })
     }
 
@@ -169,9 +188,10 @@ impl HeldOut {
         self.residuals.iter().map(|r| r.len()).sum()
     }
 
-    /// Its mismatch factor: held-out chi-square per component, at least 1.
+    /// Its mismatch factor: held-out chi-square per component held out, at least 1.
     pub fn mismatch(&self) -> f64 {
-        (self.chi2 / self.components().max(1) as f64).max(1.0)
+        let held = self.components().saturating_sub(self.nuisance).max(1);
+        (self.chi2 / held as f64).max(1.0)
     }
 }
 
@@ -227,9 +247,20 @@ pub fn compare(a: &HeldOut, b: &HeldOut, c: f64) -> Comparison {
         .sum::<f64>()
         .sqrt();
     let c = c.max(1.0);
+    // Nuisance parameters of the better-fitting side: its likelihood ratio on that many
+    // degrees of freedom (module documentation).
+    let extra = if difference < 0.0 {
+        b.nuisance.saturating_sub(a.nuisance)
+    } else {
+        a.nuisance.saturating_sub(b.nuisance)
+    };
     let z = if distance > 0.0 {
         let cox = difference / (2.0 * c.sqrt() * distance);
-        let lr = difference.signum() * (difference.abs() / c).sqrt();
+        let lr = if extra > 0 {
+            difference.signum() * chi2_deviate(difference.abs() / c, extra as f64)
+        } else {
+            difference.signum() * (difference.abs() / c).sqrt()
+        };
         cox.min(lr)
     } else {
         0.0
@@ -259,6 +290,13 @@ pub fn normal_quantile(p: f64) -> f64 {
     zmp_identify::normal_quantile(p.clamp(1e-300, 1.0 - 1e-16))
 }
 
+/// The standard normal deviate of a chi-square value `x` on `nu` degrees of freedom: `z` with
+/// `P(Z > z) = P(chi2_nu > x)` (Wilson-Hilferty, the inverse of [`chi2_quantile`]).
+pub fn chi2_deviate(x: f64, nu: f64) -> f64 {
+    let h = 2.0 / (9.0 * nu);
+    ((x / nu).cbrt() - (1.0 - h)) / h.sqrt()
+}
+
 /// The chi-square quantile with `nu` degrees of freedom exceeded with probability `p`
 /// (Wilson-Hilferty: within 1 % of the exact quantile from `nu = 3` at `p = 0.01`).
 pub fn chi2_quantile(nu: f64, p: f64) -> f64 {
@@ -278,6 +316,7 @@ pub(crate) mod tests {
             scores: Vec::new(),
             chi2s: r.iter().map(|x| x * x).collect(),
             residuals: r.into_iter().map(|x| vec![x]).collect(),
+            nuisance: 0,
         }
     }
 
@@ -293,6 +332,48 @@ pub(crate) mod tests {
         (0..n)
             .map(|_| (-2.0 * u().ln()).sqrt() * (2.0 * std::f64::consts::PI * u()).cos())
             .collect()
+    }
+
+    /// Nuisance parameters fitted on the records they predict: noise alone in them (each
+    /// record's residual taken away, as a per-record trend takes its own) is not a significant
+    /// gain on their degrees of freedom; a real record-to-record spread is.
+    #[test]
+    fn nuisance_parameters_count_as_degrees_of_freedom() {
+        let n = 200;
+        let noise = normals(n, 7);
+        let parent = held(noise.clone());
+        let mut own = held(vec![0.0; n]);
+        own.nuisance = n;
+        let z_crit = threshold(20);
+        // Each record's own value absorbs its noise: chi-square 200 -> 0, Cox's z alone
+        // would be sqrt(200) / 2 = 7.
+        let cmp = compare(&own, &parent, 1.0);
+        assert!(cmp.difference > 150.0, "{cmp:?}");
+        assert!(!cmp.better(z_crit), "noise taken for an effect: {cmp:?}");
+        // The same gain without counting the nuisance parameters would pass.
+        let mut free = own.clone();
+        free.nuisance = 0;
+        assert!(compare(&free, &parent, 1.0).better(z_crit));
+        // Record-to-record values of three noise standard deviations: significant.
+        let spread: Vec<f64> = normals(n, 8)
+            .iter()
+            .zip(&noise)
+            .map(|(a, b)| 3.0 * a + b)
+            .collect();
+        let cmp = compare(&own, &held(spread), 1.0);
+        assert!(cmp.better(z_crit), "{cmp:?}");
+        // The deviate inverts the quantile.
+        for nu in [5.0, 50.0, 500.0] {
+            let x = chi2_quantile(nu, 0.001);
+            assert!(
+                (chi2_deviate(x, nu) - z_one_sided(0.001)).abs() < 1e-9,
+                "{nu}"
+            );
+        }
+        // The mismatch factor counts the held-out components only.
+        let mut half = held(vec![2.0; 10]);
+        half.nuisance = 5;
+        assert!((half.mismatch() - 8.0).abs() < 1e-12);
     }
 
     /// The quantiles against tables: z at 5 %, 1 %, 0.1 %; the symmetric side; chi-square.

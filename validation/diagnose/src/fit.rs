@@ -214,7 +214,7 @@ pub fn fit_lm(
 }
 
 /// The one multi-start policy: every start evaluated as it is, the [`KEEP`] best with their
-/// own parameters fitted for [`ITERS_SHORT`] iterations, then every parameter of the best
+/// own parameters (if any) fitted for [`ITERS_SHORT`] iterations, then every parameter of the best
 /// from there ([`ITERS_JOINT`]). `None` when no start can be fitted.
 pub fn fit_starts(starts: &[Start], obs: &[&Observation], r: &DataRange) -> Option<Fit> {
     let mut ranked: Vec<(f64, &Start)> = starts
@@ -225,7 +225,19 @@ pub fn fit_starts(starts: &[Start], obs: &[&Observation], r: &DataRange) -> Opti
     let best = ranked
         .iter()
         .take(KEEP)
-        .filter_map(|(_, (s, own))| fit_lm(s, own, obs, ITERS_SHORT, 0))
+        .filter_map(|(cost, (s, own))| {
+            // A start with nothing of its own to fit (a drift per record) goes to the joint
+            // fit as it is.
+            if own.is_empty() {
+                return physical(s).then(|| Fit {
+                    spec: s.clone(),
+                    frees: Vec::new(),
+                    std_err: Vec::new(),
+                    cost: *cost,
+                });
+            }
+            fit_lm(s, own, obs, ITERS_SHORT, 0)
+        })
         .min_by(|a, b| a.cost.total_cmp(&b.cost))?;
     Some(joint(best, obs, r, DESCENT_FACTOR * ITERS_JOINT))
 }

@@ -134,6 +134,9 @@ fn predict_serial(
         .unwrap_or(0.0)
     };
     let rates = [rate(0), rate(1)];
+    // A drift per record: each record's trend is its own (a nuisance parameter, counted by
+    // the criterion: `HeldOut::nuisance`).
+    let own = [0, 1].map(|i| crate::profiles::drift_per_record(spec, i));
     let mut out = Vec::with_capacity(obs.len());
     for o in obs {
         if stop() {
@@ -160,7 +163,7 @@ fn predict_serial(
         out.push(Prediction {
             g,
             g3,
-            slope: rates,
+            slope: [0, 1].map(|i| if own[i] { o.slope[i] } else { rates[i] }),
         });
     }
     Ok(Some(out))

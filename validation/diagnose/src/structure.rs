@@ -26,6 +26,9 @@ pub enum Law {
     /// Each channel `G_ij` with slopes of its own (an operating-point dependence): the
     /// common law is the case of equal slopes.
     PerChannel,
+    /// Each record with a value of its own (a ZMP sensor re-zeroed at every record, drifting
+    /// at a rate that changes from record to record): the one rate is the case of equal rates.
+    PerRecord,
 }
 
 impl Law {
@@ -38,13 +41,17 @@ impl Law {
             Law::OnZmpPath => "on_zmp_path",
             Law::Coupling => "coupling",
             Law::PerChannel => "per_channel",
+            Law::PerRecord => "per_record",
         }
     }
 
     /// Whether this law holds `other` of the same kind as a special case (per-channel slopes
-    /// hold the common ones: every channel the same slope).
+    /// hold the common ones: every channel the same slope; per-record rates the one rate).
     pub const fn generalizes(self, other: Law) -> bool {
-        matches!((self, other), (Law::PerChannel, Law::Only))
+        matches!(
+            (self, other),
+            (Law::PerChannel, Law::Only) | (Law::PerRecord, Law::Only)
+        )
     }
 }
 

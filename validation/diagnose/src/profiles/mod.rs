@@ -21,6 +21,7 @@ mod structural_mode;
 mod time_delay;
 
 pub use saturation::demanded_acceleration;
+pub use sensor_drift::per_record as drift_per_record;
 
 /// A starting point of a fit: the model with the effect added, and the parameters a first,
 /// short fit from it moves (the effect's own).
@@ -225,6 +226,54 @@ pub struct DataRange {
     pub omegas: [f64; 16],
     /// How many of `omegas` are used (at most 16, spread over the band).
     pub n_omegas: usize,
+    /// Per output axis, the records' trends ([`trend_spread`]): their mean rate and the spread
+    /// of the rates beyond their noise, m/s.
+    pub trend: [[f64; 2]; 2],
+}
+
+/// The mean of the records' trends on output `i` and the spread of their rates beyond each
+/// one's noise, by Paule and Mandel's estimate of the between-record variance `tau^2`: with
+/// weights `w = 1 / (var(s) + tau^2)` and the weighted mean `m`, `sum w (s - m)^2 = n - 1`
+/// (Cochran's `Q` at its expectation), `tau^2 = 0` when `Q` is below it already. Where the
+/// spread dominates every record's noise the weights are nearly equal, as they should be: a
+/// precise record measures its own rate well, not the others'. `(0, 0)` without records.
+pub fn trend_spread(obs: &[&Observation], i: usize) -> [f64; 2] {
+    let var: Vec<f64> = obs.iter().map(|o| o.slope_var[i].max(1e-300)).collect();
+    let at = |tau2: f64| -> (f64, f64) {
+        let w: Vec<f64> = var.iter().map(|v| 1.0 / (v + tau2)).collect();
+        let sw: f64 = w.iter().sum();
+        let m = obs.iter().zip(&w).map(|(o, w)| w * o.slope[i]).sum::<f64>() / sw;
+        let q = obs
+            .iter()
+            .zip(&w)
+            .map(|(o, w)| w * (o.slope[i] - m).powi(2))
+            .sum();
+        (m, q)
+    };
+    if obs.len() < 2 {
+        return [obs.first().map_or(0.0, |o| o.slope[i]), 0.0];
+    }
+    let target = obs.len() as f64 - 1.0;
+    let (m0, q0) = at(0.0);
+    if q0 <= target {
+        return [m0, 0.0];
+    }
+    // Q falls as tau^2 grows; bracket, then bisect (in logarithm: tau^2 spans decades).
+    let spread2 = obs.iter().map(|o| o.slope[i].powi(2)).sum::<f64>() / obs.len() as f64;
+    let (mut lo, mut hi) = (1e-30_f64, spread2.max(1e-30) * 4.0);
+    while at(hi).1 > target && hi < 1e30 {
+        hi *= 4.0;
+    }
+    for _ in 0..80 {
+        let mid = (lo * hi).sqrt();
+        if at(mid).1 > target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let tau2 = (lo * hi).sqrt();
+    [at(tau2).0, tau2.sqrt()]
 }
 
 impl DataRange {
@@ -253,6 +302,7 @@ impl DataRange {
             axes_excited: [false; 2],
             omegas: [0.0; 16],
             n_omegas: 0,
+            trend: [trend_spread(obs, 0), trend_spread(obs, 1)],
         };
         let mut op_lo = [f64::INFINITY; 2];
         let mut op_hi = [f64::NEG_INFINITY; 2];
@@ -387,6 +437,7 @@ pub(crate) fn test_range() -> DataRange {
         axes_excited: [true, true],
         omegas,
         n_omegas: 9,
+        trend: [[0.0; 2]; 2],
     }
 }
 
@@ -431,15 +482,16 @@ mod tests {
         let names: Vec<String> = cands.iter().map(|c| c.label()).collect();
         assert!(!names.iter().any(|n| n == "acceleration_saturation"));
         // Delay, two plays, friction, four modes, low-pass, operating point (common and per
-        // channel), drift; the paper model has its coupling terms.
-        assert_eq!(cands.len(), 12, "{names:?}");
+        // channel), drift (one rate and per record); the paper model has its coupling terms.
+        assert_eq!(cands.len(), 13, "{names:?}");
         for c in &cands {
             let starts = profile(c.kind).starts(&spec, c, &r);
             assert!(!starts.is_empty(), "{c}");
             for (s, frees) in &starts {
                 assert!(zmp_models::Plant::new(s, 0.001).is_ok(), "{c}: {s:?}");
                 assert!(physical(s), "{c}");
-                assert!(!frees.is_empty(), "{c}");
+                // A drift per record has nothing to fit: each record's trend is its own.
+                assert!(!frees.is_empty() || c.law == Law::PerRecord, "{c}");
                 // The start's own parameters are among what a joint fit moves.
                 let all = effect_frees(s, &r);
                 for f in frees

@@ -1,46 +1,112 @@
-//! A linear drift of the ZMP reading, per output axis.
+//! A linear drift of the ZMP reading, per output axis, under two laws: one rate through every
+//! record (`only`), or a sensor re-zeroed at every record whose drift rate changes from record
+//! to record (`per_record`, which holds the first as the case of equal rates).
+//!
+//! **Per record.** A record's trend is its own: no other record predicts it, so each record's
+//! rate is a nuisance parameter fitted on that record alone ([`measure`](crate::measure)
+//! predicts each record's own trend), and the criterion counts those rates as parameters the
+//! held-out records did not test (`criterion::HeldOut::nuisance`): the structure must beat its
+//! parent by a likelihood-ratio test with that many degrees of freedom. Against the one rate,
+//! that is Cochran's test of heterogeneity, `Q = sum (s_k - mean)^2 / var(s_k)` on `n - 1`
+//! degrees of freedom. The model keeps the mean rate and the records' spread beyond their
+//! noise (`rate`, `rate_spread`: Paule and Mandel's estimate, `profiles::trend_spread`).
 
 use super::{instance_frees, per_axis, DataRange, Profile, Start};
-use crate::structure::Candidate;
+use crate::fit::{Fit, Free};
+use crate::structure::{Candidate, Law};
 use crate::words::Evidence;
 use zmp_models::{EffectKind, ModelSpec};
 
 pub struct SensorDrift;
 
+const K: EffectKind = EffectKind::SensorDrift;
+
 /// The registry's range: up to 0.1 m/s either way.
 const RANGE: (f64, f64) = (-0.1, 0.1);
 
+/// The smallest spread that marks a per-record law (m/s): below any sensor's resolution over a
+/// record, so a model whose records' rates are all alike still keeps the law it was given.
+const MARK: f64 = 1e-12;
+
+/// Whether the drift of `spec` on output `i` is per record (a spread of rates).
+pub fn per_record(spec: &ModelSpec, i: usize) -> bool {
+    let b = zmp_models::Binding::Axis(zmp_models::Axis::from_index(i).expect("0 or 1"));
+    spec.value(K, b, "rate_spread").is_some_and(|s| s > 0.0)
+}
+
 impl Profile for SensorDrift {
     fn kind(&self) -> EffectKind {
-        EffectKind::SensorDrift
+        K
     }
 
     fn model_kinds(&self) -> &'static [EffectKind] {
-        &[EffectKind::SensorDrift]
+        &[K]
     }
 
-    /// No drift: the rate is linear in the trend, one start reaches it.
-    fn starts(&self, spec: &ModelSpec, _c: &Candidate, r: &DataRange) -> Vec<Start> {
-        per_axis(
-            spec,
-            r,
-            EffectKind::SensorDrift,
-            &[0.0, 0.0],
-            "rate",
-            &[0.0],
-            RANGE,
-        )
+    fn laws(&self) -> &'static [Law] {
+        &[Law::Only, Law::PerRecord]
     }
 
-    fn frees(&self, spec: &ModelSpec, _r: &DataRange) -> Vec<crate::fit::Free> {
-        instance_frees(spec, EffectKind::SensorDrift, "rate", RANGE)
+    /// One rate: none, linear in the trend, one start reaches it. Per record: the records'
+    /// mean rate and spread (nothing to fit: each record's trend is its own).
+    fn starts(&self, spec: &ModelSpec, c: &Candidate, r: &DataRange) -> Vec<Start> {
+        if c.law == Law::PerRecord {
+            let mut s = spec.clone();
+            for a in r.excited() {
+                let [mean, spread] = r.trend[a.index()];
+                super::add_effect(
+                    &mut s,
+                    K,
+                    &[super::axis(a)],
+                    &[0.0, mean, spread.max(MARK), 0.0],
+                );
+            }
+            return vec![(s, Vec::new())];
+        }
+        per_axis(spec, r, K, &[0.0, 0.0], "rate", &[0.0], RANGE)
     }
 
-    fn signature(&self, _c: &Candidate) -> &'static str {
-        "a linear trend of the ZMP reading through every record, the harmonics unchanged"
+    /// The one rate; a per-record drift has none to fit.
+    fn frees(&self, spec: &ModelSpec, _r: &DataRange) -> Vec<Free> {
+        instance_frees(spec, K, "rate", RANGE)
+            .into_iter()
+            .filter(|f| {
+                !f.bindings.iter().any(|b| match b {
+                    zmp_models::Binding::Axis(a) => per_record(spec, a.index()),
+                    _ => false,
+                })
+            })
+            .collect()
     }
 
-    fn evidence(&self, _c: &Candidate, e: &Evidence) -> String {
+    /// One rate: the fitted rates (a Wald test). Per record: the criterion's likelihood-ratio
+    /// test on the records' own rates is the whole evidence (the records a fold was fitted on
+    /// determine their own trends).
+    fn strength(&self, fit: &Fit, c: &Candidate) -> Vec<(f64, f64)> {
+        if c.law == Law::PerRecord {
+            return vec![(1.0, 0.0)];
+        }
+        fit.frees
+            .iter()
+            .zip(&fit.std_err)
+            .filter(|(f, _)| f.kind == K)
+            .map(|(f, e)| (f.bounds.value, *e))
+            .collect()
+    }
+
+    fn signature(&self, c: &Candidate) -> &'static str {
+        if c.law == Law::PerRecord {
+            "a linear trend of the ZMP reading with a rate of its own in each record, the \
+             harmonics unchanged"
+        } else {
+            "a linear trend of the ZMP reading through every record, the harmonics unchanged"
+        }
+    }
+
+    fn evidence(&self, c: &Candidate, e: &Evidence) -> String {
+        if c.law == Law::PerRecord {
+            return per_record_evidence(e);
+        }
         let n = e.obs.len().max(1) as f64;
         let mut sl = [0.0f64; 2];
         let mut t = [0.0f64; 2];
@@ -61,4 +127,34 @@ impl Profile for SensorDrift {
             e.params_text()
         )
     }
+}
+
+/// The records' trends per output: their mean and spread, and Cochran's `Q` against one rate.
+fn per_record_evidence(e: &Evidence) -> String {
+    let n = e.obs.len();
+    let parts: Vec<String> = (0..2)
+        .map(|i| {
+            let [mean, spread] = super::trend_spread(e.obs, i);
+            let q: f64 = e
+                .obs
+                .iter()
+                .map(|o| (o.slope[i] - mean).powi(2) / o.slope_var[i].max(1e-300))
+                .sum();
+            format!(
+                "{} {:+.3} mm/s mean, {:.3} mm/s from record to record (Q {:.0} on {} degrees \
+                 of freedom)",
+                ["x", "y"][i],
+                mean * 1e3,
+                spread * 1e3,
+                q,
+                n.saturating_sub(1)
+            )
+        })
+        .collect();
+    format!(
+        "each record's ZMP drifts linearly at a rate of its own, the rates differing from \
+         record to record far beyond their noise ({}): a ZMP sensor re-zeroed at every record \
+         whose drift differs each time",
+        parts.join("; ")
+    )
 }

@@ -34,6 +34,7 @@ fn node(s: &Structure, r: Vec<f64>) -> Node {
             scores: Vec::new(),
             chi2s: r.iter().map(|x| x * x).collect(),
             residuals: r.into_iter().map(|x| vec![x]).collect(),
+            nuisance: 0,
         },
     }
 }
