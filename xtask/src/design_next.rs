@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use zmp_diagnose::design::limits::CapSource;
-use zmp_diagnose::design::{design_next, to_toml, DesignOptions, Designed, Rival};
+use zmp_diagnose::design::{design_next, to_toml, DesignOptions, Designed, Rival, PILOT};
 use zmp_files::{check_file, write_file, Kind};
 
 /// What `cargo xtask design-next` was asked.
@@ -21,9 +21,17 @@ pub struct DesignArgs {
     /// Most records proposed.
     #[arg(long, default_value_t = zmp_diagnose::design::MAX_RECORDS)]
     pub max_records: usize,
-    /// Separation (noise standard deviations) at which the design stops.
-    #[arg(long = "target", default_value_t = zmp_diagnose::design::TARGET_SIGMA)]
-    pub target_sigma: f64,
+    /// Separation (noise standard deviations) at which the design stops. Default: where the
+    /// diagnosis's criterion decides a pair with 99 % probability, 2 sqrt(c) (z + 2.33), z the
+    /// threshold of a search from the rivals and c the best rival's chi-square per component
+    /// on the campaign (at least 1)
+    #[arg(long = "target")]
+    pub target_sigma: Option<f64>,
+    /// Highest candidate frequency, rad/s. Default: twice the campaign's highest, below the
+    /// slowest rival's servo omega_n. When designing again after a pilot, give the first
+    /// design's highest (it prints it), so that the band grows once, not at every stage
+    #[arg(long = "max-omega", value_name = "RAD_S")]
+    pub max_omega: Option<f64>,
     /// Noise seed written into the design (for the simulators).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -67,6 +75,8 @@ pub fn design_next_cmd(a: &DesignArgs) -> Result<Designed> {
         target_sigma: a.target_sigma,
         threads: zmp_campaign::par::budget(),
         seed: a.seed,
+        decision: None,
+        omega_cap: a.max_omega,
     };
     let spinner = if a.json {
         ProgressBar::hidden()
@@ -114,17 +124,24 @@ pub(crate) fn print_text(d: &Designed, out: Option<&Path>, seconds: f64) {
         d.total_time_s(),
         if d.decided() {
             format!(
-                "every pair separated by at least {} noise standard deviations",
+                "every pair separated by at least {:.1} noise standard deviations",
                 d.target_sigma
             )
         } else {
             format!(
-                "the least separated pair at {:.2} of the target {} noise standard deviations",
+                "the least separated pair at {:.2} of the target {:.1} noise standard deviations",
                 d.min_sigma(),
                 d.target_sigma
             )
         }
     );
+    if let Some(c) = d.decision {
+        println!(
+            "  target {:.1}: where the diagnosis's criterion (z > {:.2}, mismatch factor {:.2}) \
+             decides a pair with probability 99 %",
+            d.target_sigma, c.z_crit, c.mismatch
+        );
+    }
     for (k, l) in d.labels.iter().enumerate() {
         println!("  M{}: {l}", k + 1);
     }
@@ -161,12 +178,22 @@ pub(crate) fn print_text(d: &Designed, out: Option<&Path>, seconds: f64) {
             r.duration_s
         );
     }
+    if d.records.len() > PILOT {
+        println!(
+            "run the first {PILOT} records first (the pilot), append them, refit the models on \
+             the extended campaign and design again with --max-omega {:.3} --max-records {}: \
+             the separations above assume the campaign's noise and the models' values where \
+             the records lie, which the pilot measures (docs/src/design-next.md)",
+            d.limits.omega_max,
+            d.records.len() - PILOT
+        );
+    }
     let l = &d.limits;
     let t = &d.timing;
     println!("limits used:");
     println!(
         "  frequencies {:.3}-{:.3} rad/s: from the campaign's lowest to the lower of twice its \
-         highest and the slowest servo's omega_n ({:.1} rad/s)",
+         highest and the slowest servo's omega_n ({:.1} rad/s), or --max-omega",
         l.omega_min, l.omega_max, l.servo_omega_n
     );
     println!(
@@ -237,7 +264,9 @@ pub(crate) fn json(
         })).collect::<Vec<_>>(),
         "smallest_sigma_path": d.path,
         "target_sigma": d.target_sigma,
+        "decision": d.decision.map(|c| serde_json::json!({"z_crit": c.z_crit, "mismatch": c.mismatch})),
         "decided": d.decided(),
+        "pilot_records": PILOT.min(d.records.len()),
         "total_time_s": d.total_time_s(),
         "seconds": seconds,
         "candidates": d.candidates,

@@ -22,19 +22,36 @@
 //! against the current refit of `j` (the directional gain, first order in the refit), each
 //! pair's term capped at the target once it is reached so that the least separated pair
 //! decides; then every rival is refitted with the record. It stops at the record budget or
-//! when every ordered pair is separated by [`TARGET_SIGMA`] noise standard deviations.
+//! when every ordered pair is separated by the target.
+//!
+//! A record at a frequency neither the campaign nor the design holds yet is recorded twice:
+//! the criterion judges each record by the fit of the fold that did not see it, the records
+//! of one frequency alternating between the folds, so a frequency met once would be judged by
+//! extrapolation alone.
+//!
+//! **The target** is the separation at which the diagnosis's own criterion decides: with one
+//! structure true, Cox's statistic of the comparison is normal with mean
+//! `sqrt(T) / (2 sqrt(c))`, so a pair is decided with probability `1 - alpha` when
+//! `sqrt(T) >= 2 sqrt(c) (z_crit + z_(1 - alpha))` (`criterion::decisive_separation`), with
+//! `z_crit` and the mismatch factor `c` those of the search that found the set (the loop
+//! passes them; from the rivals alone, the threshold of a search from each and the best
+//! rival's chi-square per component on the campaign). A campaign whose records part the
+//! rivals by less than that has not decided them, whatever its separation in noise alone.
 
 mod evaluate;
 mod greedy;
 pub mod limits;
 pub mod noise;
 pub mod separation;
+mod staged;
 mod toml_out;
 
-use crate::measure::Prediction;
+use crate::criterion::decisive_separation;
+use crate::measure::{predict, whitened, Prediction};
 use crate::observe::Observation;
 use crate::profiles::DataRange;
 use crate::run::{check_inputs, observe_campaign, DiagnoseError, DiagnoseOptions};
+use crate::search::z_threshold;
 use greedy::{greedy, Greedy};
 use limits::{centres, Candidate, Limits, RecordTiming};
 use noise::NoiseModel;
@@ -45,10 +62,23 @@ use zmp_models::{Axis, ModelSpec};
 /// Most records a design proposes by default.
 pub const MAX_RECORDS: usize = 24;
 
-/// Separation at which a pair counts as decided, in noise standard deviations: the expected
-/// chi-square difference 25 exceeds the 1 % likelihood-ratio threshold for up to four extra
-/// parameters (13.3) by more than its own standard deviation (about `2 sqrt(25) = 10`).
-pub const TARGET_SIGMA: f64 = 5.0;
+/// The diagnosis's criterion a design aims to satisfy (`criterion`): its threshold and the
+/// mismatch factor of the search that found the rivals.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Decision {
+    /// The criterion's threshold, a standard normal deviate.
+    pub z_crit: f64,
+    /// The mismatch factor (chi-square per component of the best structure, at least 1).
+    pub mismatch: f64,
+}
+
+impl Decision {
+    /// The separation at which the criterion decides a pair with probability `1 - alpha`,
+    /// noise standard deviations (`criterion::decisive_separation`).
+    pub fn separation(&self) -> f64 {
+        decisive_separation(self.z_crit, self.mismatch)
+    }
+}
 
 /// One rival structure: a fitted model and the name it goes by (its file).
 #[derive(Debug, Clone)]
@@ -66,8 +96,15 @@ pub struct DesignOptions {
     pub campaign_path: String,
     /// Most records the design may propose; it stops earlier once every pair is decided.
     pub max_records: usize,
-    /// Separation, in noise standard deviations, at which a pair counts as decided.
-    pub target_sigma: f64,
+    /// Separation, in noise standard deviations, at which a pair counts as decided; `None`:
+    /// where the criterion decides ([`Decision::separation`]).
+    pub target_sigma: Option<f64>,
+    /// The criterion of the search that found the rivals; `None`: from the rivals on the
+    /// campaign (the threshold of a search from each, the best one's mismatch).
+    pub decision: Option<Decision>,
+    /// Highest candidate frequency, rad/s; `None`: twice the campaign's highest, below the
+    /// slowest rival's servo `omega_n` (never below the campaign's highest).
+    pub omega_cap: Option<f64>,
     /// Worker threads for the candidate evaluations.
     pub threads: usize,
     /// Noise seed written into the design (for the simulators).
@@ -79,7 +116,9 @@ impl Default for DesignOptions {
         DesignOptions {
             campaign_path: "campaign".into(),
             max_records: MAX_RECORDS,
-            target_sigma: TARGET_SIGMA,
+            target_sigma: None,
+            decision: None,
+            omega_cap: None,
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
             seed: 1,
         }
@@ -137,6 +176,12 @@ pub enum DesignError {
         /// Label of the model taken as true.
         truth: String,
     },
+    /// A staged design's records could not be run (`design_staged`): why.
+    #[error("the designed records could not be run: {0}")]
+    Records(String),
+    /// A rival could not be refitted on the campaign with the pilot's records (its label).
+    #[error("{0}: its fit on the campaign with the pilot's records failed")]
+    Refit(String),
 }
 
 /// A designed record.
@@ -183,10 +228,13 @@ pub struct Designed {
     /// Every ordered pair's separation with the finished design.
     pub separations: Vec<Separation>,
     /// The smallest separation over the ordered pairs (noise standard deviations) on the
-    /// campaign alone and after each record, as the greedy construction went.
+    /// campaign alone and after each record, as the greedy construction went (a record at a
+    /// new frequency, recorded twice, gives both copies the value after the two).
     pub path: Vec<f64>,
     /// The separation the design aimed for, noise standard deviations.
     pub target_sigma: f64,
+    /// The criterion it was derived from (`None` when it was given).
+    pub decision: Option<Decision>,
     /// How long each designed record runs, read from the campaign's records.
     pub timing: RecordTiming,
     /// The robot's limits every designed record stays within.
@@ -226,6 +274,7 @@ impl Designed {
 }
 
 pub use evaluate::evaluate;
+pub use staged::{design_staged, RunRecords, Staged, PILOT};
 pub use toml_out::to_toml;
 
 /// Designs the records that separate `rivals` (two or three fitted models) on `campaign`.
@@ -260,9 +309,18 @@ pub fn design_next_observed(
         let obs: Vec<&Observation> = observations.iter().collect();
         check(&obs, rivals, opts)?;
         let noise = noise_model(&obs, opts)?;
+        let decision = match (opts.target_sigma, opts.decision) {
+            (Some(_), _) => None,
+            (None, Some(d)) => Some(d),
+            (None, None) => Some(decision_of(&obs, rivals)?),
+        };
+        let target = opts
+            .target_sigma
+            .or(decision.map(|d| d.separation()))
+            .unwrap_or_default();
         let timing = RecordTiming::of(campaign, &obs);
         let specs: Vec<&ModelSpec> = rivals.iter().map(|r| &r.spec).collect();
-        let limits = Limits::of(campaign, &obs, &specs);
+        let limits = Limits::of(campaign, &obs, &specs, opts.omega_cap);
         let centres = centres(campaign, &obs);
         progress("candidates");
         let (admitted, truths) = admitted(&limits, &timing, &noise, &centres, rivals, opts)?;
@@ -281,7 +339,7 @@ pub fn design_next_observed(
             pairs,
             chosen,
             path,
-        } = greedy(rivals, &campaign_truths, &truths, opts, progress)?;
+        } = greedy(rivals, &campaign_truths, &truths, opts, target, progress)?;
         let records = chosen
             .iter()
             .map(|&k| {
@@ -311,7 +369,8 @@ pub fn design_next_observed(
                 })
                 .collect(),
             path,
-            target_sigma: opts.target_sigma,
+            target_sigma: target,
+            decision,
             timing,
             zmp_noise_std: (noise.sample_std.powi(2) - q * q / 12.0).max(0.0).sqrt(),
             seed: opts.seed,
@@ -327,6 +386,34 @@ fn noise_model(obs: &[&Observation], opts: &DesignOptions) -> Result<NoiseModel,
     NoiseModel::of(obs).map_err(|e| DesignError::NoNoise {
         campaign: opts.campaign_path.clone(),
         output: ["zmp_x", "zmp_y"][e.output].into(),
+    })
+}
+
+/// The criterion a diagnosis of the campaign would decide by, from the rivals alone: the
+/// highest threshold of a search from any of them, the lowest chi-square per component of
+/// their predictions of the campaign (in-sample; at least 1).
+fn decision_of(obs: &[&Observation], rivals: &[Rival]) -> Result<Decision, DesignError> {
+    let r = DataRange::of(obs);
+    let z_crit = rivals
+        .iter()
+        .map(|x| z_threshold(&x.spec, &r))
+        .fold(0.0, f64::max);
+    let mut mismatch = f64::INFINITY;
+    let mut buf = Vec::new();
+    for x in rivals {
+        let p = predict(&x.spec, obs).map_err(|e| model_error(x, e))?;
+        let (mut chi2, mut n) = (0.0, 0usize);
+        for (o, pr) in obs.iter().zip(&p) {
+            buf.clear();
+            whitened(o, pr, &mut buf);
+            chi2 += buf.iter().map(|v| v * v).sum::<f64>();
+            n += buf.len();
+        }
+        mismatch = mismatch.min(chi2 / n.max(1) as f64);
+    }
+    Ok(Decision {
+        z_crit,
+        mismatch: mismatch.max(1.0),
     })
 }
 

@@ -89,6 +89,15 @@ impl LoopResult {
         v.extend(self.alternatives.iter().map(|(_, a)| &a.spec));
         v
     }
+
+    /// The criterion of the diagnosis that ended the loop (its threshold and mismatch
+    /// factor): what a design separating the set aims to satisfy.
+    pub fn decision(&self) -> Option<crate::design::Decision> {
+        self.diagnoses.last().map(|d| crate::design::Decision {
+            z_crit: d.z_crit,
+            mismatch: d.mismatch,
+        })
+    }
 }
 
 /// Runs the loop on `campaign`. `start` is a model whose structure is identified instead of

@@ -191,13 +191,8 @@ pub fn search(
             held,
         },
     );
-    let singles: Vec<Candidate> = candidates(model, &r);
-    let pairs: Vec<Structure> = (0..singles.len())
-        .flat_map(|i| (i + 1..singles.len()).map(move |j| (i, j)))
-        .map(|(i, j)| root.with(singles[i]).with(singles[j]))
-        .filter(valid)
-        .collect();
-    let compared = singles.len() + pairs.len() + 2 * BEAM * singles.len();
+    let (singles, pairs) = lattice(model, &r);
+    let compared = planned(&singles, &pairs);
     let z_crit = threshold(compared);
     let mut level: Vec<Structure> = singles.iter().map(|c| root.with(*c)).collect();
     let mut cut_short = false;
@@ -271,6 +266,32 @@ pub fn search(
         parted,
         cut_short,
     })
+}
+
+/// The lattice's exhaustive levels from `model`: every single candidate and every valid pair.
+fn lattice(model: &ModelSpec, r: &DataRange) -> (Vec<Candidate>, Vec<Structure>) {
+    let root = Structure::root();
+    let singles: Vec<Candidate> = candidates(model, r);
+    let pairs: Vec<Structure> = (0..singles.len())
+        .flat_map(|i| (i + 1..singles.len()).map(move |j| (i, j)))
+        .map(|(i, j)| root.with(singles[i]).with(singles[j]))
+        .filter(valid)
+        .collect();
+    (singles, pairs)
+}
+
+/// How many structures a search plans to compare: the exhaustive levels and the beam's two
+/// further levels of at most [`BEAM`] parents with every candidate each (the count its
+/// threshold is shared over).
+fn planned(singles: &[Candidate], pairs: &[Structure]) -> usize {
+    singles.len() + pairs.len() + 2 * BEAM * singles.len()
+}
+
+/// The threshold a search from `model` on records spanning `r` compares at
+/// (`criterion::threshold` over the structures it plans to compare).
+pub fn z_threshold(model: &ModelSpec, r: &DataRange) -> f64 {
+    let (singles, pairs) = lattice(model, r);
+    threshold(planned(&singles, &pairs))
 }
 
 /// Whether a structure can be built at all: one law per kind, one mode per plane.

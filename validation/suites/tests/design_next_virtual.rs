@@ -263,7 +263,7 @@ fn section(u: &Undecided, d: &Designed, after: &Decided, for_drawn: f64, ratio: 
          deviations on the campaign, {:.1} with the {} record(s) ({:.0} s of recording; the play \
          true: nested), a chi-square difference of {:.0}. Simulated on the same robot and \
          appended, the two structures refitted: the play alone {:.1}, with the delay {:.1}, a \
-         difference of {:.0} ({:.1} noise standard deviations; the target was {}). The \
+         difference of {:.0} ({:.1} noise standard deviations; the target was {:.1}). The \
          prediction is local: it rests on the delay fitted on the campaign alone, {:.1} ms \
          against the drawn {:.1} ms (the separation goes as the delay squared); with the drawn \
          robot as the truth the same records are predicted to give {:.0}, and the measured \

@@ -47,6 +47,7 @@ pub(super) fn design_for_set(
     let opts = DesignOptions {
         campaign_path: campaign.display().to_string(),
         threads: zmp_campaign::par::budget(),
+        decision: r.decision(),
         ..DesignOptions::default()
     };
     let pb = progress_bar(1, "designing", quiet);

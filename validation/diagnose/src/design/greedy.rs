@@ -125,12 +125,13 @@ pub(super) fn greedy(
     campaign: &[Vec<Observation>],
     truths: &[Vec<Observation>],
     opts: &DesignOptions,
+    target: f64,
     progress: &(dyn Fn(&str) + Sync),
 ) -> Result<Greedy, DesignError> {
     let threads = zmp_campaign::par::budget();
     progress("refitting each rival to the others' predictions");
     let mut pairs = start_pairs(rivals, campaign, threads)?;
-    let cap = opts.target_sigma * opts.target_sigma;
+    let cap = target * target;
     let campaign_top = campaign[0].iter().map(|o| o.omega).fold(0.0, f64::max);
     let mut chosen: Vec<usize> = Vec::new();
     let mut path = Vec::new();
@@ -171,9 +172,26 @@ pub(super) fn greedy(
             progress("no candidate separates the rivals further");
             break;
         };
-        chosen.push(best);
+        // The criterion judges each record by the fit of the fold that did not see it, the
+        // records of one frequency alternating between the folds (`criterion::folds`): a
+        // frequency recorded once is judged by extrapolation alone. A record at a frequency
+        // the campaign and the design lack is therefore recorded twice, once in each fold
+        // (budget allowing).
+        let omega = truths[0][best].omega;
+        let new = |w: f64| (w - omega).abs() > 1e-9 * omega;
+        let fresh = campaign[0].iter().all(|o| new(o.omega))
+            && chosen.iter().all(|&k| new(truths[0][k].omega));
+        let copies = if fresh && chosen.len() + 2 <= opts.max_records {
+            2
+        } else {
+            1
+        };
+        for _ in 0..copies {
+            chosen.push(best);
+        }
         pairs = refit_pairs(rivals, &pairs, &chosen, campaign, truths, false, threads)?;
-        path.push(smallest(&pairs).max(0.0).sqrt());
+        let now = smallest(&pairs).max(0.0).sqrt();
+        path.extend(std::iter::repeat_n(now, copies));
     }
     // The finished design's separations, the rival also refitted from its own fitted values
     // (a refit stuck where the greedy path took it would overstate the separation).

@@ -272,14 +272,19 @@ pub fn demand(spec: &ModelSpec, axis: Axis, omega: f64, amplitude: f64) -> f64 {
 
 impl Limits {
     /// The limits for `rivals` on the campaign (`obs`, its records for the ZMP centres).
-    pub fn of(campaign: &Campaign, obs: &[&Observation], rivals: &[&ModelSpec]) -> Limits {
+    pub fn of(
+        campaign: &Campaign,
+        obs: &[&Observation],
+        rivals: &[&ModelSpec],
+        omega_cap: Option<f64>,
+    ) -> Limits {
         let omegas: Vec<f64> = crate::criterion::distinct_omegas(obs);
         let (lo, hi) = (omegas[0], omegas[omegas.len() - 1]);
         let servo_omega_n = rivals
             .iter()
             .flat_map(|s| Axis::BOTH.map(|a| servo_params_of(s, Binding::Axis(a)).0))
             .fold(f64::INFINITY, f64::min);
-        let omega_max = hi.max((2.0 * hi).min(servo_omega_n));
+        let omega_max = hi.max(omega_cap.unwrap_or((2.0 * hi).min(servo_omega_n)));
         let per_decade = if omegas.len() > 1 && hi > lo {
             (omegas.len() - 1) as f64 / (hi / lo).log10()
         } else {

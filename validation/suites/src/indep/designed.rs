@@ -1,14 +1,16 @@
 //! One designed experiment on a draw whose loop ended `ambiguous` (issue 55, items 5 and 7):
-//! the set's structures as the loop fitted them are the rivals of `design_next`, the design is
-//! written as a design file, the independent simulator reads that file and runs its records on
-//! the same drawn robot (the robot's own sensor, a noise seed of its own), the records are
-//! appended to the campaign (`zmp_campaign::append_campaign`) and the loop runs again on the
-//! extended campaign. What the second loop concludes is the case's second verdict.
+//! the set's structures as the loop fitted them are the rivals of the design, run in two
+//! stages (`design_staged`: a pilot, then the rest designed on the campaign with the pilot's
+//! records); each stage is written as a design file, the independent simulator reads that file
+//! and runs its records on the same drawn robot (the robot's own sensor, a noise seed of its
+//! own per stage), the records are appended to the campaign
+//! (`zmp_campaign::append_campaign`) and the loop runs again on the extended campaign. What
+//! the second loop concludes is the case's second verdict.
 
 use super::verdict::{LoopVerdict, MAX_SET};
 use std::path::Path;
 use zmp_campaign::{append_campaign, read_campaign, Campaign};
-use zmp_diagnose::design::{design_next_observed, to_toml, DesignOptions, Rival};
+use zmp_diagnose::design::{design_staged, to_toml, DesignOptions, Designed, Rival};
 use zmp_diagnose::iterate::{run_loop, LoopResult};
 use zmp_diagnose::DiagnoseOptions;
 use zmp_identify::IdentifyOptions;
@@ -22,7 +24,8 @@ pub struct AfterDesign {
     /// Their total recording time, s.
     pub recording_s: f64,
     /// The smallest predicted separation over the pairs records can separate, noise standard
-    /// deviations, with the designed records.
+    /// deviations, with the designed records (the second stage's prediction, made on the
+    /// campaign with the pilot's records).
     pub predicted_sigma: f64,
     /// The second loop's effects, in order.
     pub found: Vec<String>,
@@ -52,7 +55,8 @@ impl AfterDesign {
     }
 }
 
-/// The noise seed of the designed records: one the campaign's own records (drawn with the
+/// The noise seed of the designed records (the pilot's; the rest's is the next one): one the
+/// campaign's own records (drawn with the
 /// design's `seed`) do not use, so that their noise is a new realisation.
 pub fn design_seed(campaign_design: &Design) -> u64 {
     campaign_design.seed + 1
@@ -106,52 +110,67 @@ pub fn after_design(
         campaign_path: camp_dir.display().to_string(),
         threads: opts.threads,
         seed: design_seed(drawn.design),
+        decision: r.decision(),
         ..DesignOptions::default()
+    };
+    // Each stage's records: written as a design file, read by the simulator itself, run on
+    // the same robot with its own sensor (the file's white stand-in is for the virtual robot)
+    // and a noise seed of their own, appended.
+    let mut stage = 0u64;
+    let mut run = |base: &Campaign, d: &Designed| -> Result<Campaign, String> {
+        let here = dir.join(format!("stage-{stage}"));
+        let seed = dopts.seed + stage;
+        stage += 1;
+        let go = || -> anyhow::Result<Campaign> {
+            std::fs::create_dir_all(&here)?;
+            let file = here.join("design-next.toml");
+            zmp_files::write_file(&file, zmp_files::Kind::Design, to_toml(d).as_bytes(), true)?;
+            let next = Design {
+                zmp_noise_std: None,
+                seed,
+                ..Design::from_toml_file(&file)?
+            };
+            let added_dir = here.join("designed");
+            write_campaign(robot, &next, &added_dir, true)?;
+            let added = read_campaign(&added_dir)?;
+            Ok(append_campaign(base, camp_dir, &added, &added_dir)?)
+        };
+        go().map_err(|e| format!("{e:#}"))
     };
     // A panic of the design is the draw's error, not the suite's end (one draw is one unit).
     let designed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        design_next_observed(campaign, &r.observations, &rivals(r), &dopts, &|_| {})
+        design_staged(
+            campaign,
+            &r.observations,
+            &rivals(r),
+            &dopts,
+            &mut run,
+            &|_| {},
+        )
     }));
-    let d = match designed {
-        Ok(Ok(d)) => d,
+    let st = match designed {
+        Ok(Ok(st)) => st,
         Ok(Err(e)) => return AfterDesign::failed(format!("design-next: {e}")),
         Err(p) => {
             return AfterDesign::failed(format!("design-next panicked: {}", panic_text(p.as_ref())))
         }
     };
-    if d.records.is_empty() {
-        return AfterDesign::failed(if d.decided() {
+    if st.pilot.records.is_empty() {
+        return AfterDesign::failed(if st.pilot.decided() {
             "design-next: the campaign separates the set already"
         } else {
             "design-next: no record within the limits helps"
         });
     }
-    let run = || -> anyhow::Result<Campaign> {
-        let file = dir.join("design-next.toml");
-        zmp_files::write_file(&file, zmp_files::Kind::Design, to_toml(&d).as_bytes(), true)?;
-        // The simulator reads the design file itself; the robot's own sensor (the file's white
-        // stand-in is for the virtual robot).
-        let next = Design {
-            zmp_noise_std: None,
-            ..Design::from_toml_file(&file)?
-        };
-        let added_dir = dir.join("designed");
-        write_campaign(robot, &next, &added_dir, true)?;
-        let added = read_campaign(&added_dir)?;
-        Ok(append_campaign(campaign, camp_dir, &added, &added_dir)?)
-    };
-    let extended = match run() {
-        Ok(x) => x,
-        Err(e) => return AfterDesign::failed(format!("the designed records: {e:#}")),
-    };
+    let extended = st.extended.clone();
     let opts = DiagnoseOptions {
         campaign_path: format!("{} with the designed records", camp_dir.display()),
         ..opts.clone()
     };
     let base = AfterDesign {
-        records: d.records.len(),
-        recording_s: d.total_time_s(),
-        predicted_sigma: d.min_sigma(),
+        records: st.records().len(),
+        recording_s: st.pilot.total_time_s() + st.rest.as_ref().map_or(0.0, |d| d.total_time_s()),
+        predicted_sigma: st.last().min_sigma(),
         ..AfterDesign::failed("")
     };
     match run_loop(&extended, None, iopts, &opts, &|_| {}) {
