@@ -228,6 +228,32 @@ fn a_pilot_measures_what_the_rest_is_designed_on() {
     );
 }
 
+/// Whether the pilot decided is what its records measure: with a target of 5 noise standard
+/// deviations the pilot's prediction reaches it, and the rest is still designed on the
+/// campaign with the pilot's records, where the rivals refitted part by at least the target
+/// already (the delay is 10 ms, as the rival's): no more records.
+#[test]
+fn the_pilot_is_judged_by_its_records() {
+    let camp = delay_campaign();
+    let (obs, _) = observe_campaign(&camp, 2);
+    let mut run = |base: &Campaign, d: &Designed| run_on_delay_robot(base, d, 9);
+    let st = design_staged(
+        &camp,
+        &obs,
+        &delay_rivals(),
+        &options(24, 5.0),
+        &mut run,
+        &|_| {},
+    )
+    .unwrap();
+    assert!(st.pilot.decided(), "{:?}", st.pilot.separations);
+    let rest = st.rest.as_ref().expect("designed on the pilot's records");
+    assert!(rest.records.is_empty(), "{:?}", rest.records);
+    assert!(rest.decided() && st.records().len() == PILOT);
+    let delay_true = rest.separations.iter().find(|s| s.truth == 1).unwrap();
+    assert!(delay_true.campaign_sigma >= 5.0, "{delay_true:?}");
+}
+
 #[test]
 fn fewer_than_two_models_is_an_error() {
     let camp = delay_campaign();

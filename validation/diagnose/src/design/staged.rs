@@ -8,7 +8,7 @@
 //! band), where the robot may do what no campaign record showed: on the independent
 //! simulator's robot with a play in a compliant transmission the response at twice the
 //! campaign's top frequency alternates from period to period, and the diagnosis's
-//! period-to-period noise estimate of those records is 47 times the sensor's
+//! period-to-period noise estimate of those records is tens of times the sensor's
 //! (`docs/src/design-next.md`).
 //!
 //! So the experiment is run as Atkinson and Fedorov's sequential design: the design's first
@@ -36,7 +36,8 @@ pub struct Staged {
     /// more).
     pub pilot: Designed,
     /// The second stage, designed on the campaign with the pilot's records and the rivals
-    /// refitted there; `None` when the pilot used the budget or reached the target.
+    /// refitted there (no records when that campaign parts every pair by the target already);
+    /// `None` when the pilot used the budget.
     pub rest: Option<Designed>,
     /// The rivals refitted on the campaign with the pilot's records (empty without a rest).
     pub refitted: Vec<Rival>,
@@ -86,8 +87,10 @@ pub fn design_staged(
     }
     progress("running the pilot's records");
     let extended = run(campaign, &pilot).map_err(DesignError::Records)?;
+    // Whether the pilot decided is what its records measure, not what it predicted: the rest
+    // is designed (and is empty when the extended campaign parts every pair by the target).
     let budget = opts.max_records.saturating_sub(pilot.records.len());
-    if budget == 0 || pilot.decided() {
+    if budget == 0 {
         return Ok(Staged {
             pilot,
             rest: None,
