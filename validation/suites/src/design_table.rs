@@ -50,7 +50,7 @@ mod tests {
         }
     }
 
-    /// Both design-next sections of the book hold the table of their records as this helper
+    /// The design-next sections of the book hold the tables of their records as this helper
     /// writes it, byte for byte: the suites that write those sections are long (`#[ignore]`d),
     /// so this guards the format they share in CI. The rows are read back from the page
     /// (printed values reprint unchanged), so a rerun of the suites keeps it valid.
@@ -72,8 +72,8 @@ mod tests {
             tables += 1;
         }
         assert_eq!(
-            tables, 2,
-            "the virtual robot's and the independent simulator's"
+            tables, 3,
+            "the virtual robot's, the independent simulator's pilot and its rest"
         );
     }
 }
