@@ -3,8 +3,9 @@
 //! cause at a time (the conclusions in `docs/src/design-next.md`, the tables in the commit that
 //! added them). Run with `cargo test --release -p zmp-suites --test design_overpredict --
 //! --ignored --nocapture`; `OP_INBAND=1` keeps the design within the campaign's band,
-//! `OP_TARGET` sets its target, `OP_KEEP=DIR` keeps the runs, `OP_SEEDS=1,2,..` the draws of
-//! `sweep`, `OP_TWO=1` runs `sweep` in two stages, `OP_CAP` caps `two_stage`'s frequencies.
+//! `OP_TARGET` sets its target, `OP_KEEP=DIR` keeps the runs, `OP_SEED` the decomposed draw,
+//! `OP_SEEDS=1,2,..` the draws of `sweep`, `OP_TWO=1` runs `sweep` in two stages, `OP_CAP`
+//! caps `two_stage`'s frequencies.
 
 mod indep_pair;
 
@@ -82,7 +83,12 @@ fn overprediction_decomposed() {
         Err(_) => tmpdir.path().to_path_buf(),
     };
     let tmp = base.as_path();
-    let u = undecided_campaign(tmp);
+    let seed: u64 = std::env::var("OP_SEED").map_or(SEED, |s| s.parse().unwrap());
+    let u = if seed == SEED {
+        undecided_campaign(tmp)
+    } else {
+        campaign_of(tmp, seed)
+    };
     let rivals = vec![
         Rival {
             label: "play.toml".into(),
@@ -111,12 +117,12 @@ fn overprediction_decomposed() {
     std::fs::write(&file, to_toml(&d)).unwrap();
     let next = Design::from_toml_file(&file).unwrap();
     let noisy_design = Design {
-        seed: SEED + 1,
+        seed: seed + 1,
         zmp_noise_std: None,
         ..next.clone()
     };
     let clean_design = Design {
-        seed: SEED + 1,
+        seed: seed + 1,
         zmp_noise_std: None,
         noise: Some(Noise {
             white_std: 1e-9,
@@ -140,7 +146,7 @@ fn overprediction_decomposed() {
         omegas: (0..9)
             .map(|k| 0.5 * (TOP / 0.5f64).powf(k as f64 / 8.0))
             .collect(),
-        seed: SEED,
+        seed,
         noise: Some(Noise {
             white_std: 1e-9,
             coloured_std: 0.0,
