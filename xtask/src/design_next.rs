@@ -188,6 +188,16 @@ pub(crate) fn print_text(d: &Designed, out: Option<&Path>, seconds: f64) {
             d.records.len() - PILOT
         );
     }
+    print_limits(d);
+    match out {
+        Some(out) => println!("wrote {}", out.display()),
+        None if d.decided() => println!("the campaign separates them already: no design written"),
+        None => println!("no record within the limits separates them: no design written"),
+    }
+}
+
+/// The limits and the records' timing the design kept to.
+fn print_limits(d: &Designed) {
     let l = &d.limits;
     let t = &d.timing;
     println!("limits used:");
@@ -234,11 +244,6 @@ pub(crate) fn print_text(d: &Designed, out: Option<&Path>, seconds: f64) {
             "from the identification's windows"
         }
     );
-    match out {
-        Some(out) => println!("wrote {}", out.display()),
-        None if d.decided() => println!("the campaign separates them already: no design written"),
-        None => println!("no record within the limits separates them: no design written"),
-    }
 }
 
 pub(crate) fn json(

@@ -16,7 +16,7 @@ use zmp_campaign::{append_campaign, Campaign};
 use zmp_diagnose::criterion::{compare, split, HeldOut};
 use zmp_diagnose::design::separation::{as_truth, predict_all, record_set, refit, start};
 use zmp_diagnose::design::{design_next, evaluate};
-use zmp_diagnose::design::{to_toml, DesignOptions, Designed, Rival, MAX_RECORDS};
+use zmp_diagnose::design::{to_toml, DesignOptions, Designed, Rival, Separation, MAX_RECORDS};
 use zmp_diagnose::fit::Fit as Fitted;
 use zmp_diagnose::measure::components;
 use zmp_diagnose::observe::mark_third_band;
@@ -70,6 +70,46 @@ fn cv(play: &ModelSpec, both: &ModelSpec, obs: &[&Observation]) -> (f64, f64, f6
     (cmp.difference, cmp.distance, cmp.z, c)
 }
 
+/// The pair as the design's rivals: the play, and the play with the delay.
+fn rivals(play: &ModelSpec, both: &ModelSpec) -> Vec<Rival> {
+    vec![
+        Rival {
+            label: "play.toml".into(),
+            spec: play.clone(),
+        },
+        Rival {
+            label: "play+delay.toml".into(),
+            spec: both.clone(),
+        },
+    ]
+}
+
+/// The predicted chi-square difference with play+delay true.
+fn predicted(separations: &[Separation]) -> f64 {
+    let s = separations.iter().find(|s| s.truth == 1).unwrap();
+    s.total_sigma.powi(2)
+}
+
+/// `d` noise-free: white noise of 1e-9 m, no quantisation.
+fn noise_free(d: Design) -> Design {
+    Design {
+        noise: Some(Noise {
+            white_std: 1e-9,
+            coloured_std: 0.0,
+            coloured_tau: 1.0,
+        }),
+        quantisation: 0.0,
+        ..d
+    }
+}
+
+/// The delay of `s` on x, ms (0 without one).
+fn delay_ms(s: &ModelSpec) -> f64 {
+    s.value(EffectKind::TimeDelay, Binding::Axis(Axis::X), "delay")
+        .unwrap_or(0.0)
+        * 1e3
+}
+
 #[test]
 #[ignore = "diagnostic: prints the over-prediction's decomposition"]
 fn overprediction_decomposed() {
@@ -89,16 +129,7 @@ fn overprediction_decomposed() {
     } else {
         campaign_of(tmp, seed)
     };
-    let rivals = vec![
-        Rival {
-            label: "play.toml".into(),
-            spec: u.play.clone(),
-        },
-        Rival {
-            label: "play+delay.toml".into(),
-            spec: u.both.clone(),
-        },
-    ];
+    let rivals = rivals(&u.play, &u.both);
     let opts = DesignOptions {
         threads: 2,
         campaign_path: u.camp_dir.display().to_string(),
@@ -119,19 +150,9 @@ fn overprediction_decomposed() {
     let noisy_design = Design {
         seed: seed + 1,
         zmp_noise_std: None,
-        ..next.clone()
-    };
-    let clean_design = Design {
-        seed: seed + 1,
-        zmp_noise_std: None,
-        noise: Some(Noise {
-            white_std: 1e-9,
-            coloured_std: 0.0,
-            coloured_tau: 1.0,
-        }),
-        quantisation: 0.0,
         ..next
     };
+    let clean_design = noise_free(noisy_design.clone());
     eprintln!("robot sensor noise {:?}", u.robot.sensor.noise);
     eprintln!(
         "robot axes {:#?} hidden {:?}",
@@ -142,19 +163,13 @@ fn overprediction_decomposed() {
     let noisy = run_on_robot(&u.robot, &noisy_design, &tmp.join("noisy"));
     let clean = run_on_robot(&u.robot, &clean_design, &tmp.join("clean"));
     // Campaign noise-free too.
-    let camp_clean_design = Design {
+    let camp_clean_design = noise_free(Design {
         omegas: (0..9)
             .map(|k| 0.5 * (TOP / 0.5f64).powf(k as f64 / 8.0))
             .collect(),
         seed,
-        noise: Some(Noise {
-            white_std: 1e-9,
-            coloured_std: 0.0,
-            coloured_tau: 1.0,
-        }),
-        quantisation: 0.0,
         ..Design::default()
-    };
+    });
     let camp_clean = run_on_robot(&u.robot, &camp_clean_design, &tmp.join("cc"));
     let (mut c_obs, _) = observe_campaign(&u.camp, 2);
     let (cc_obs, _) = observe_campaign(&camp_clean, 2);
@@ -195,8 +210,19 @@ fn overprediction_decomposed() {
             o.index, o.omega, o.t0, o.t1
         );
     }
-    // Noise calibration: the noisy record against its noise-free twin, over the noisy
-    // record's own variances (chi-square per component, 1 if the estimate is right).
+    noise_calibration(&c_obs, &cc_obs, &n_obs, &k_obs);
+    decomposition_table(&u, &d, &opts, &c_obs, &c_clean, &r_clean, &n_obs);
+    variance_ratios(&d, &c_obs, &cc_obs, &n_obs, &k_obs);
+}
+
+/// Noise calibration: each noisy record against its noise-free twin, over the noisy
+/// record's own variances (chi-square per component, 1 if the estimate is right).
+fn noise_calibration(
+    c_obs: &[Observation],
+    cc_obs: &[Observation],
+    n_obs: &[Observation],
+    k_obs: &[Observation],
+) {
     let calib = |noisy: &Observation, clean: &Observation| {
         let a = clean.u1.norm();
         let ph = clean.u1 / a;
@@ -225,13 +251,13 @@ fn overprediction_decomposed() {
         }
         None => groups.push((key, v)),
     };
-    for o in &c_obs {
+    for o in c_obs {
         let cc = cc_obs.iter().find(|x| x.index == o.index).unwrap();
         let mut o3 = o.clone();
         o3.third_band = 3.0 * o.omega <= TOP * (1.0 + 1e-9);
         add("campaign".into(), calib(&o3, cc));
     }
-    for (o, c) in n_obs.iter().zip(&k_obs) {
+    for (o, c) in n_obs.iter().zip(k_obs) {
         let mut o3 = o.clone();
         o3.third_band = false;
         add(
@@ -255,27 +281,35 @@ fn overprediction_decomposed() {
             g.1[2].1
         );
     }
-    // Per-record noise: observed / predicted variance, from the design's candidate obs.
+}
+
+/// The decomposition's table over the first k designed records (`c_clean`, `r_clean`:
+/// the campaign's and the records' noise-free data with the noisy records' weights).
+fn decomposition_table(
+    u: &Undecided,
+    d: &Designed,
+    opts: &DesignOptions,
+    c_obs: &[Observation],
+    c_clean: &[Observation],
+    r_clean: &[Observation],
+    n_obs: &[Observation],
+) {
+    let rivals = rivals(&u.play, &u.both);
     eprintln!("k | P(design) | P(real w) | T real-fit | P(theta*) | D0 clean | D noisy | c | D/c | CV D | CV dist^2 | CV z | c_cv");
     for k in [1usize, 2, 4, 8, 12, 16, 24] {
         if k > d.records.len() {
             break;
         }
-        let sep = evaluate(&u.camp, &rivals, &d.records[..k], &opts).unwrap();
-        let p_design = sep
-            .iter()
-            .find(|s| s.truth == 1)
-            .unwrap()
-            .total_sigma
-            .powi(2);
+        let sep = evaluate(&u.camp, &rivals, &d.records[..k], opts).unwrap();
+        let p_design = predicted(&sep);
         let added_n: Vec<Observation> = n_obs[..k].to_vec();
-        let (p_w, t_real) = t_design(&u.both, &u.play, &c_obs, &added_n);
+        let (p_w, t_real) = t_design(&u.both, &u.play, c_obs, &added_n);
         // Noise-free measured.
         let mut set0: Vec<Observation> = c_clean.iter().chain(&r_clean[..k]).cloned().collect();
         mark_third_band(&mut set0);
         let refs0: Vec<&Observation> = set0.iter().collect();
         let (p0, b0) = (fitr(&u.play, &refs0), fitr(&u.both, &refs0));
-        let (p_theta, _) = t_design(&b0.spec, &u.play, &c_obs, &added_n);
+        let (p_theta, _) = t_design(&b0.spec, &u.play, c_obs, &added_n);
         // Noisy measured.
         let mut set1: Vec<Observation> = c_obs.iter().chain(&n_obs[..k]).cloned().collect();
         mark_third_band(&mut set1);
@@ -299,7 +333,16 @@ fn overprediction_decomposed() {
             Axis::BOTH.iter().map(|a| b1.spec.value(EffectKind::TimeDelay, Binding::Axis(*a), "delay")).collect::<Vec<_>>(),
         );
     }
-    // Per record: the design's predicted variance vs the record's own estimate.
+}
+
+/// Per record: the design's predicted variance against the record's own estimate.
+fn variance_ratios(
+    d: &Designed,
+    c_obs: &[Observation],
+    cc_obs: &[Observation],
+    n_obs: &[Observation],
+    k_obs: &[Observation],
+) {
     let cands =
         zmp_diagnose::design::noise::NoiseModel::of(&c_obs.iter().collect::<Vec<_>>()).unwrap();
     for o in c_obs.iter().filter(|o| o.omega > 3.0) {
@@ -313,7 +356,7 @@ fn overprediction_decomposed() {
             cc.y1_var[0] / v1x, cc.y1_var[1] / v1y
         );
     }
-    for (r, o) in d.records.iter().zip(&n_obs) {
+    for (r, o) in d.records.iter().zip(n_obs) {
         let w = o.duration();
         let (v1x, v3x, _) = cands.variances(0, r.omega, w);
         let (v1y, _, _) = cands.variances(1, r.omega, w);
@@ -383,18 +426,6 @@ fn two_stage() {
         omega_cap: std::env::var("OP_CAP").ok().map(|s| s.parse().unwrap()),
         ..DesignOptions::default()
     };
-    let rivals = |play: &ModelSpec, both: &ModelSpec| {
-        vec![
-            Rival {
-                label: "play.toml".into(),
-                spec: play.clone(),
-            },
-            Rival {
-                label: "play+delay.toml".into(),
-                spec: both.clone(),
-            },
-        ]
-    };
     let d1 = design_next(
         &u.camp,
         &rivals(&u.play, &u.both),
@@ -402,13 +433,7 @@ fn two_stage() {
         &|_| {},
     )
     .unwrap();
-    let p1 = d1
-        .separations
-        .iter()
-        .find(|s| s.truth == 1)
-        .unwrap()
-        .total_sigma
-        .powi(2);
+    let p1 = predicted(&d1.separations);
     let e1 = extend(&u, &u.camp, &d1, SEED + 1, &tmp.path().join("stage1"));
     let (play1, both1, g1, c1) = measure(&u, &e1);
     eprintln!("stage 1: {} records {}\n predicted {p1:.1}, measured D {g1:.1}, c {c1:.2}, D/c {:.1}; delay {:?}",
@@ -453,146 +478,111 @@ fn sweep() {
     for seed in seeds {
         let tmp = tempfile::tempdir().unwrap();
         let u = campaign_of(tmp.path(), seed);
-        let robot_delay = u.robot.axes[0].command_delay * 1e3;
-        let dl = |s: &ModelSpec| {
-            s.value(EffectKind::TimeDelay, Binding::Axis(Axis::X), "delay")
-                .unwrap_or(0.0)
-                * 1e3
-        };
         if u.gain_before >= LR_1PCT_2DOF {
             eprintln!(
-                "{seed} | decided by the campaign (gain {:.1}, c {:.2}) | {robot_delay:.1} | {:.1}",
+                "{seed} | decided by the campaign (gain {:.1}, c {:.2}) | {:.1} | {:.1}",
                 u.gain_before,
                 u.mismatch,
-                dl(&u.both)
+                u.robot.axes[0].command_delay * 1e3,
+                delay_ms(&u.both)
             );
-            continue;
-        }
-        if std::env::var("OP_TWO").is_ok() {
-            let opts = |max: usize| DesignOptions {
-                threads: 2,
-                campaign_path: u.camp_dir.display().to_string(),
-                max_records: max,
-                omega_cap: Some(2.0 * TOP),
-                ..DesignOptions::default()
-            };
-            let rv = |play: &ModelSpec, both: &ModelSpec| {
-                vec![
-                    Rival {
-                        label: "play.toml".into(),
-                        spec: play.clone(),
-                    },
-                    Rival {
-                        label: "play+delay.toml".into(),
-                        spec: both.clone(),
-                    },
-                ]
-            };
-            let Ok(d1) = design_next(&u.camp, &rv(&u.play, &u.both), &opts(2), &|_| {}) else {
-                eprintln!("{seed} | two-stage | no pilot");
-                continue;
-            };
-            if d1.records.is_empty() {
-                eprintln!("{seed} | two-stage | empty pilot");
-                continue;
+        } else if std::env::var("OP_TWO").is_ok() {
+            sweep_two_stage(&u, seed, tmp.path());
+        } else {
+            for beyond in [true, false] {
+                sweep_one_stage(&u, seed, beyond, tmp.path());
             }
-            let e1 = extend(&u, &u.camp, &d1, seed + 1, &tmp.path().join("s1"));
-            let (play1, both1, _, _) = measure(&u, &e1);
-            let d2 = design_next(
-                &e1,
-                &rv(&play1, &both1),
-                &opts(MAX_RECORDS - d1.records.len()),
-                &|_| {},
-            )
-            .unwrap();
-            let p2 = d2
-                .separations
-                .iter()
-                .find(|s| s.truth == 1)
-                .unwrap()
-                .total_sigma
-                .powi(2);
-            let e2 = if d2.records.is_empty() {
-                e1.clone()
-            } else {
-                extend(&u, &e1, &d2, seed + 2, &tmp.path().join("s2"))
-            };
-            let (obs, _) = observe_campaign(&e2, 2);
-            let refs: Vec<&Observation> = obs.iter().collect();
-            let (pf, bf) = (fitr(&u.play, &refs), fitr(&u.both, &refs));
-            let bf2 = both_from_play(&u.both, &pf, &refs);
-            eprintln!(
-                "   play {:.1} both {:.1} both from play {:.1} (delay {:.1} ms)",
-                pf.cost,
-                bf.cost,
-                bf2.cost,
-                dl(&bf2.spec)
-            );
-            let c = (bf.cost / components(&refs) as f64).max(1.0);
-            let g = (pf.cost - bf.cost) / c;
-            let (_, _, z, _) = cv(&u.play, &u.both, &refs);
-            let top = d1
-                .records
-                .iter()
-                .chain(&d2.records)
-                .map(|r| r.omega)
-                .fold(0.0, f64::max);
-            eprintln!(
-                "{seed} | two-stage | {robot_delay:.1} | {:.1} | {:.1} | {:.1} | {}+{} | {top:.1} | {p2:.1} | {g:.1} | {:.2} | {c:.2} | {:.1} | {z:.2}",
-                dl(&u.both), u.gain_before, d2.target_sigma, d1.records.len(), d2.records.len(), g / p2, dl(&bf.spec)
-            );
-            continue;
-        }
-        for beyond in [true, false] {
-            let rivals = vec![
-                Rival {
-                    label: "play.toml".into(),
-                    spec: u.play.clone(),
-                },
-                Rival {
-                    label: "play+delay.toml".into(),
-                    spec: u.both.clone(),
-                },
-            ];
-            let opts = DesignOptions {
-                threads: 2,
-                campaign_path: u.camp_dir.display().to_string(),
-                omega_cap: (!beyond).then_some(TOP),
-                ..DesignOptions::default()
-            };
-            let d = match design_next(&u.camp, &rivals, &opts, &|_| {}) {
-                Ok(d) if !d.records.is_empty() => d,
-                other => {
-                    eprintln!("{seed} | {beyond} | no design: {:?}", other.map(|d| d.path));
-                    continue;
-                }
-            };
-            let p = d
-                .separations
-                .iter()
-                .find(|s| s.truth == 1)
-                .unwrap()
-                .total_sigma
-                .powi(2);
-            let e = extend(
-                &u,
-                &u.camp,
-                &d,
-                seed + 1,
-                &tmp.path().join(format!("b{beyond}")),
-            );
-            let (obs, _) = observe_campaign(&e, 2);
-            let refs: Vec<&Observation> = obs.iter().collect();
-            let (pf, bf) = (fitr(&u.play, &refs), fitr(&u.both, &refs));
-            let c = (bf.cost / components(&refs) as f64).max(1.0);
-            let g = (pf.cost - bf.cost) / c;
-            let (_, _, z, _) = cv(&u.play, &u.both, &refs);
-            let top = d.records.iter().map(|r| r.omega).fold(0.0, f64::max);
-            eprintln!(
-                "{seed} | {} | {robot_delay:.1} | {:.1} | {:.1} | {:.1} | {} | {top:.1} | {p:.1} | {g:.1} | {:.2} | {c:.2} | {:.1} | {z:.2}",
-                if beyond { "to 2x" } else { "band" },
-                dl(&u.both), u.gain_before, d.target_sigma, d.records.len(), g / p, dl(&bf.spec)
-            );
         }
     }
+}
+
+/// One of `sweep`'s draws in two stages, the frequencies capped at twice the campaign's top.
+fn sweep_two_stage(u: &Undecided, seed: u64, dir: &std::path::Path) {
+    let robot_delay = u.robot.axes[0].command_delay * 1e3;
+    let opts = |max: usize| DesignOptions {
+        threads: 2,
+        campaign_path: u.camp_dir.display().to_string(),
+        max_records: max,
+        omega_cap: Some(2.0 * TOP),
+        ..DesignOptions::default()
+    };
+    let Ok(d1) = design_next(&u.camp, &rivals(&u.play, &u.both), &opts(2), &|_| {}) else {
+        eprintln!("{seed} | two-stage | no pilot");
+        return;
+    };
+    if d1.records.is_empty() {
+        eprintln!("{seed} | two-stage | empty pilot");
+        return;
+    }
+    let e1 = extend(u, &u.camp, &d1, seed + 1, &dir.join("s1"));
+    let (play1, both1, _, _) = measure(u, &e1);
+    let d2 = design_next(
+        &e1,
+        &rivals(&play1, &both1),
+        &opts(MAX_RECORDS - d1.records.len()),
+        &|_| {},
+    )
+    .unwrap();
+    let p2 = predicted(&d2.separations);
+    let e2 = if d2.records.is_empty() {
+        e1.clone()
+    } else {
+        extend(u, &e1, &d2, seed + 2, &dir.join("s2"))
+    };
+    let (obs, _) = observe_campaign(&e2, 2);
+    let refs: Vec<&Observation> = obs.iter().collect();
+    let (pf, bf) = (fitr(&u.play, &refs), fitr(&u.both, &refs));
+    let bf2 = both_from_play(&u.both, &pf, &refs);
+    eprintln!(
+        "   play {:.1} both {:.1} both from play {:.1} (delay {:.1} ms)",
+        pf.cost,
+        bf.cost,
+        bf2.cost,
+        delay_ms(&bf2.spec)
+    );
+    let c = (bf.cost / components(&refs) as f64).max(1.0);
+    let g = (pf.cost - bf.cost) / c;
+    let (_, _, z, _) = cv(&u.play, &u.both, &refs);
+    let top = d1
+        .records
+        .iter()
+        .chain(&d2.records)
+        .map(|r| r.omega)
+        .fold(0.0, f64::max);
+    eprintln!(
+        "{seed} | two-stage | {robot_delay:.1} | {:.1} | {:.1} | {:.1} | {}+{} | {top:.1} | {p2:.1} | {g:.1} | {:.2} | {c:.2} | {:.1} | {z:.2}",
+        delay_ms(&u.both), u.gain_before, d2.target_sigma, d1.records.len(), d2.records.len(), g / p2, delay_ms(&bf.spec)
+    );
+}
+
+/// One of `sweep`'s draws in one stage: beyond the band (to twice its top) or within it.
+fn sweep_one_stage(u: &Undecided, seed: u64, beyond: bool, dir: &std::path::Path) {
+    let robot_delay = u.robot.axes[0].command_delay * 1e3;
+    let opts = DesignOptions {
+        threads: 2,
+        campaign_path: u.camp_dir.display().to_string(),
+        omega_cap: (!beyond).then_some(TOP),
+        ..DesignOptions::default()
+    };
+    let d = match design_next(&u.camp, &rivals(&u.play, &u.both), &opts, &|_| {}) {
+        Ok(d) if !d.records.is_empty() => d,
+        other => {
+            eprintln!("{seed} | {beyond} | no design: {:?}", other.map(|d| d.path));
+            return;
+        }
+    };
+    let p = predicted(&d.separations);
+    let e = extend(u, &u.camp, &d, seed + 1, &dir.join(format!("b{beyond}")));
+    let (obs, _) = observe_campaign(&e, 2);
+    let refs: Vec<&Observation> = obs.iter().collect();
+    let (pf, bf) = (fitr(&u.play, &refs), fitr(&u.both, &refs));
+    let c = (bf.cost / components(&refs) as f64).max(1.0);
+    let g = (pf.cost - bf.cost) / c;
+    let (_, _, z, _) = cv(&u.play, &u.both, &refs);
+    let top = d.records.iter().map(|r| r.omega).fold(0.0, f64::max);
+    eprintln!(
+        "{seed} | {} | {robot_delay:.1} | {:.1} | {:.1} | {:.1} | {} | {top:.1} | {p:.1} | {g:.1} | {:.2} | {c:.2} | {:.1} | {z:.2}",
+        if beyond { "to 2x" } else { "band" },
+        delay_ms(&u.both), u.gain_before, d.target_sigma, d.records.len(), g / p, delay_ms(&bf.spec)
+    );
 }
