@@ -141,6 +141,14 @@ fn a_sensor_drift_per_record_is_named_with_its_rates() {
         Candidate::new(EffectKind::SensorDrift, Law::PerRecord),
         &[],
     );
+    // The words say on which outputs the rates differ beyond their noise: both here.
+    assert!(
+        d.findings[0]
+            .evidence
+            .contains("beyond their noise on x and y"),
+        "{}",
+        d.findings[0].evidence
+    );
     let records = simulate_campaign(&truth, &design()).unwrap().records.len();
     for a in [Axis::X, Axis::Y] {
         let drawn: Vec<f64> = (0..records as u64)

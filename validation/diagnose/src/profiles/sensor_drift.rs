@@ -129,17 +129,23 @@ impl Profile for SensorDrift {
     }
 }
 
-/// The records' trends per output: their mean and spread, and Cochran's `Q` against one rate.
+/// The records' trends per output: their mean and spread, and Cochran's `Q` against one rate,
+/// saying on which outputs the rates differ beyond their noise (`Q` above its quantile at the
+/// criterion's level on `n - 1` degrees of freedom).
 fn per_record_evidence(e: &Evidence) -> String {
     let n = e.obs.len();
+    let dof = n.saturating_sub(1).max(1) as f64;
+    let mut beyond = Vec::new();
     let parts: Vec<String> = (0..2)
         .map(|i| {
             let [mean, spread] = super::trend_spread(e.obs, i);
-            let q: f64 = e
-                .obs
-                .iter()
-                .map(|o| (o.slope[i] - mean).powi(2) / o.slope_var[i].max(1e-300))
-                .sum();
+            let w = |o: &&crate::observe::Observation| 1.0 / o.slope_var[i].max(1e-300);
+            let sw: f64 = e.obs.iter().map(w).sum();
+            let m0 = e.obs.iter().map(|o| w(o) * o.slope[i]).sum::<f64>() / sw.max(1e-300);
+            let q: f64 = e.obs.iter().map(|o| w(o) * (o.slope[i] - m0).powi(2)).sum();
+            if q > crate::criterion::chi2_quantile(dof, crate::criterion::ALPHA) {
+                beyond.push(["x", "y"][i]);
+            }
             format!(
                 "{} {:+.3} mm/s mean, {:.3} mm/s from record to record (Q {:.0} on {} degrees \
                  of freedom)",
@@ -151,10 +157,19 @@ fn per_record_evidence(e: &Evidence) -> String {
             )
         })
         .collect();
+    let lead = if beyond.is_empty() {
+        "each record's ZMP drifts linearly, at rates that differ from record to record by \
+         little more than their noise on either output"
+            .to_string()
+    } else {
+        format!(
+            "each record's ZMP drifts linearly at a rate of its own, the rates differing from \
+             record to record beyond their noise on {}",
+            beyond.join(" and ")
+        )
+    };
     format!(
-        "each record's ZMP drifts linearly at a rate of its own, the rates differing from \
-         record to record far beyond their noise ({}): a ZMP sensor re-zeroed at every record \
-         whose drift differs each time",
+        "{lead} ({}): a ZMP sensor re-zeroed at every record whose drift differs each time",
         parts.join("; ")
     )
 }
