@@ -231,6 +231,24 @@ pub struct DataRange {
     pub trend: [[f64; 2]; 2],
 }
 
+/// The records' trends on output `i` weighted by `w = 1 / (var(s) + tau2)`: their weighted
+/// mean `m` and Cochran's `Q = sum w (s - m)^2` (`tau2 = 0`: the test of one rate, `Q` on
+/// `n - 1` degrees of freedom).
+pub fn trend_q(obs: &[&Observation], i: usize, tau2: f64) -> (f64, f64) {
+    let w: Vec<f64> = obs
+        .iter()
+        .map(|o| 1.0 / (o.slope_var[i].max(1e-300) + tau2))
+        .collect();
+    let sw: f64 = w.iter().sum::<f64>().max(1e-300);
+    let m = obs.iter().zip(&w).map(|(o, w)| w * o.slope[i]).sum::<f64>() / sw;
+    let q = obs
+        .iter()
+        .zip(&w)
+        .map(|(o, w)| w * (o.slope[i] - m).powi(2))
+        .sum();
+    (m, q)
+}
+
 /// The mean of the records' trends on output `i` and the spread of their rates beyond each
 /// one's noise, by Paule and Mandel's estimate of the between-record variance `tau^2`: with
 /// weights `w = 1 / (var(s) + tau^2)` and the weighted mean `m`, `sum w (s - m)^2 = n - 1`
@@ -238,18 +256,7 @@ pub struct DataRange {
 /// spread dominates every record's noise the weights are nearly equal, as they should be: a
 /// precise record measures its own rate well, not the others'. `(0, 0)` without records.
 pub fn trend_spread(obs: &[&Observation], i: usize) -> [f64; 2] {
-    let var: Vec<f64> = obs.iter().map(|o| o.slope_var[i].max(1e-300)).collect();
-    let at = |tau2: f64| -> (f64, f64) {
-        let w: Vec<f64> = var.iter().map(|v| 1.0 / (v + tau2)).collect();
-        let sw: f64 = w.iter().sum();
-        let m = obs.iter().zip(&w).map(|(o, w)| w * o.slope[i]).sum::<f64>() / sw;
-        let q = obs
-            .iter()
-            .zip(&w)
-            .map(|(o, w)| w * (o.slope[i] - m).powi(2))
-            .sum();
-        (m, q)
-    };
+    let at = |tau2: f64| trend_q(obs, i, tau2);
     if obs.len() < 2 {
         return [obs.first().map_or(0.0, |o| o.slope[i]), 0.0];
     }

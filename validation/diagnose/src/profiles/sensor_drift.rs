@@ -139,10 +139,7 @@ fn per_record_evidence(e: &Evidence) -> String {
     let parts: Vec<String> = (0..2)
         .map(|i| {
             let [mean, spread] = super::trend_spread(e.obs, i);
-            let w = |o: &&crate::observe::Observation| 1.0 / o.slope_var[i].max(1e-300);
-            let sw: f64 = e.obs.iter().map(w).sum();
-            let m0 = e.obs.iter().map(|o| w(o) * o.slope[i]).sum::<f64>() / sw.max(1e-300);
-            let q: f64 = e.obs.iter().map(|o| w(o) * (o.slope[i] - m0).powi(2)).sum();
+            let (_, q) = super::trend_q(e.obs, i, 0.0);
             if q > crate::criterion::chi2_quantile(dof, crate::criterion::ALPHA) {
                 beyond.push(["x", "y"][i]);
             }
